@@ -1,0 +1,276 @@
+"""Command line: ``fenics-plast run | point | keys``.
+
+Exit status: 0 success; 1 the run failed (summary.json still written, with ``converged: false``
+and ``error``); 2 invalid scene file, bad arguments or a runner that cannot be imported (nothing
+written).
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import sys
+import time
+import traceback
+from pathlib import Path
+
+import numpy as np
+
+from .scene import SceneError, keys_markdown, load_scene
+
+EXIT_OK, EXIT_RUN_FAILED, EXIT_USAGE = 0, 1, 2
+
+F_COLUMNS = [f"F{i}{j}" for i in range(1, 4) for j in range(1, 4)]
+
+
+def _env_rank() -> int:
+    """MPI rank without importing mpi4py (validation must stay fast and MPI-free)."""
+    for var in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK", "MPI_LOCALRANKID"):
+        if var in os.environ:
+            try:
+                return int(os.environ[var])
+            except ValueError:
+                pass
+    return 0
+
+
+def _error(msg: str) -> None:
+    if _env_rank() == 0:
+        print(f"error: {msg}", file=sys.stderr, flush=True)
+
+
+def _say(msg: str) -> None:
+    if _env_rank() == 0:
+        print(msg, flush=True)
+
+
+# ----------------------------------------------------------------------------------------------
+# run
+
+
+def cmd_run(args) -> int:
+    try:
+        scene = load_scene(args.scene, args.set or ())
+    except SceneError as e:
+        _error(str(e))
+        return EXIT_USAGE
+
+    from .scenes import RunnerNotFound, get_runner
+    try:
+        runner = get_runner(scene.kind)
+    except RunnerNotFound as e:
+        _error(str(e))
+        return EXIT_USAGE
+    except ImportError as e:
+        _error(f"cannot import the runner for scene kind {scene.kind!r}: {e}")
+        return EXIT_USAGE
+
+    out_dir = Path(args.out) if args.out else Path("results") / scene.name
+
+    from mpi4py import MPI
+    comm = MPI.COMM_WORLD
+    from .errors import RunError
+    from .output import RunOutput
+
+    output = RunOutput(out_dir, comm)
+    _say(f"fenics-plast: scene {scene.name!r} ({scene.kind}; physics: "
+         f"{', '.join(scene.active_physics) or 'elastic'}) on {comm.size} rank(s) -> {out_dir}")
+
+    summary = {
+        "scene": scene.name,
+        "kind": scene.kind,
+        "scene_file": str(scene.path),
+        "overrides": list(scene.overrides),
+        "active_physics": scene.active_physics,
+        "mpi_ranks": comm.size,
+    }
+    t0 = time.perf_counter()
+    status = EXIT_OK
+    try:
+        results = runner(scene, output)
+        if results is None:
+            results = {}
+        summary.update(results)
+        summary.setdefault("converged", True)
+        if not summary["converged"]:
+            status = EXIT_RUN_FAILED
+            _error(f"run of {scene.name!r} did not converge")
+    except RunError as e:
+        status = EXIT_RUN_FAILED
+        summary.update(e.results)
+        summary.update(converged=False, error=str(e))
+        _error(str(e))
+    except KeyboardInterrupt:
+        status = 130
+        summary.update(converged=False, error="interrupted")
+        _error("interrupted")
+    except Exception as e:  # a bug: keep what we have, show the traceback
+        status = EXIT_RUN_FAILED
+        summary.update(converged=False, error=f"{type(e).__name__}: {e}")
+        if comm.rank == 0:
+            traceback.print_exc()
+        _error(f"run of {scene.name!r} crashed: {type(e).__name__}: {e}")
+    summary["wall_time_s"] = time.perf_counter() - t0
+    summary["scene_settings"] = scene.to_dict()
+    path = output.finish(summary)
+    _say(f"fenics-plast: {'done' if status == EXIT_OK else 'FAILED'} in {summary['wall_time_s']:.1f} s; "
+         f"results in {out_dir}/ (summary: {path})")
+    return status
+
+
+# ----------------------------------------------------------------------------------------------
+# point
+
+
+def read_deformation_table(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Read a CSV with header ``t,F11,F12,F13,F21,F22,F23,F31,F32,F33`` (row-major F, one state per row,
+    ``t`` a pseudo-time/label). Returns ``(t (n,), F (n,3,3))``. Raises ValueError with a clear message."""
+    path = Path(path)
+    with open(path, newline="", encoding="utf-8") as f:
+        rows = [r for r in csv.reader(f) if r and not r[0].lstrip().startswith("#")]
+    if not rows:
+        raise ValueError(f"{path}: empty table")
+    header = [h.strip() for h in rows[0]]
+    missing = [c for c in ["t"] + F_COLUMNS if c not in header]
+    if missing:
+        raise ValueError(f"{path}: header must be t,{','.join(F_COLUMNS)} (missing: {', '.join(missing)})")
+    try:
+        data = np.array([[float(x) for x in r] for r in rows[1:]], dtype=float)
+    except ValueError as e:
+        raise ValueError(f"{path}: not a number: {e}") from None
+    if data.ndim != 2 or data.shape[0] < 1 or data.shape[1] != len(header):
+        raise ValueError(f"{path}: every row needs {len(header)} numbers")
+    idx = {h: i for i, h in enumerate(header)}
+    t = data[:, idx["t"]]
+    F = np.stack([data[:, idx[c]] for c in F_COLUMNS], axis=1).reshape(-1, 3, 3)
+    bad = np.nonzero(np.linalg.det(F) <= 0)[0]
+    if bad.size:
+        raise ValueError(f"{path}: det F <= 0 in data row {int(bad[0]) + 1}")
+    return t, F
+
+
+def _columns(result: dict) -> dict[str, np.ndarray]:
+    cols = {}
+    for k, v in result.items():
+        a = np.asarray(v)
+        if a.ndim <= 1:
+            cols[k] = np.atleast_1d(a)
+        else:  # (n, 3, 3) and the like -> k_11, k_12, ...
+            n = a.shape[0]
+            flat = a.reshape(n, -1)
+            idx = np.ndindex(*a.shape[1:])
+            for j, ij in enumerate(idx):
+                cols[f"{k}_{''.join(str(i + 1) for i in ij)}"] = flat[:, j]
+    return cols
+
+
+def cmd_point(args) -> int:
+    try:
+        scene = load_scene(args.scene, args.set or ())
+    except SceneError as e:
+        _error(str(e))
+        return EXIT_USAGE
+    if args.path in ("uniaxial", "shear") and args.to is None:
+        _error(f"--path {args.path} needs --to VALUE (log strain for uniaxial, shear gamma for shear)")
+        return EXIT_USAGE
+    if args.path == "table" and not args.table:
+        _error("--path table needs --table F.csv (header t,F11,F12,F13,F21,F22,F23,F31,F32,F33)")
+        return EXIT_USAGE
+    if args.steps < 1:
+        _error("--steps must be >= 1")
+        return EXIT_USAGE
+    t = None
+    if args.path == "table":
+        try:
+            t, F = read_deformation_table(args.table)
+        except (OSError, ValueError) as e:
+            _error(str(e))
+            return EXIT_USAGE
+    try:
+        from .material import Material
+        from .material import point
+    except ImportError as e:
+        _error(f"the material package is not available: {e}")
+        return EXIT_USAGE
+
+    from .errors import RunError
+    material = Material.from_scene(scene.material)
+    try:
+        if args.path == "uniaxial":
+            result = point.uniaxial_stress(material, args.to, args.steps)
+        elif args.path == "shear":
+            result = point.simple_shear(material, args.to, args.steps)
+        else:
+            result = point.deformation_table(material, F)
+    except RunError as e:
+        _error(str(e))
+        return EXIT_RUN_FAILED
+    result = dict(result)
+    if t is not None and "t" not in result:
+        result = {"t": t, **result}
+    cols = _columns(result)
+    out = Path(args.out) if args.out else Path("results") / scene.name / f"point_{args.path}.csv"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    n = len(next(iter(cols.values()))) if cols else 0
+    with open(out, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(list(cols))
+        for i in range(n):
+            w.writerow([repr(float(c[i])) if np.issubdtype(c.dtype, np.number) else c[i] for c in cols.values()])
+    _say(f"fenics-plast point: {n} rows ({', '.join(cols)}) -> {out}")
+    return EXIT_OK
+
+
+# ----------------------------------------------------------------------------------------------
+# keys
+
+
+def cmd_keys(args) -> int:
+    sys.stdout.write(keys_markdown())
+    return EXIT_OK
+
+
+# ----------------------------------------------------------------------------------------------
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="fenics-plast",
+        description="Finite-strain J2 elastoplasticity (Simo-Ortiz / Garcia Garino) on FEniCSx.",
+        epilog="Scene keys: docs/SCENE_KEYS.md (or `fenics-plast keys`).")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    r = sub.add_parser("run", help="run a scene file",
+                       description="Validate SCENE.toml and run it; writes summary.json, history.csv, "
+                                   "fields.xdmf and plots into --out (default results/<scene name>).")
+    r.add_argument("scene", help="scene file (TOML)")
+    r.add_argument("--out", help="output directory (default results/<scene name>)")
+    r.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a scene key by dotted path, e.g. --set material.nu=0.3 (repeatable)")
+    r.set_defaults(func=cmd_run)
+
+    q = sub.add_parser("point", help="drive the material of a scene at one material point",
+                       description="Material-point driver: stress-strain paths without a mesh.")
+    q.add_argument("scene", help="scene file (TOML); only [material] is used")
+    q.add_argument("--path", required=True, choices=("uniaxial", "shear", "table"),
+                   help="uniaxial stress to log strain --to; simple shear to gamma --to; "
+                        "or a table of deformation gradients (--table)")
+    q.add_argument("--to", type=float, help="final log strain (uniaxial) or shear gamma (shear)")
+    q.add_argument("--steps", type=int, default=100, help="number of steps (default 100)")
+    q.add_argument("--table", help="CSV with header t,F11,F12,F13,F21,F22,F23,F31,F32,F33 (row-major F)")
+    q.add_argument("--out", help="output CSV (default results/<scene name>/point_<path>.csv)")
+    q.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene key (repeatable)")
+    q.set_defaults(func=cmd_point)
+
+    k = sub.add_parser("keys", help="print the scene key reference (docs/SCENE_KEYS.md)")
+    k.set_defaults(func=cmd_keys)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

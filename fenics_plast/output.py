@@ -1,0 +1,188 @@
+"""Run output: history.csv, other CSV tables, PNG plots, fields.xdmf path, summary.json.
+
+Knows nothing of physics. Rank 0 writes every file except fields.xdmf (written collectively by
+dolfinx through :attr:`RunOutput.xdmf_path`). ``comm`` may be an mpi4py communicator or None
+(serial, no MPI import).
+"""
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+__all__ = ["RunOutput", "to_jsonable"]
+
+
+def to_jsonable(obj: Any) -> Any:
+    """Plain Python types for json: numpy scalars/arrays, Paths, tuples, sets; non-finite floats -> None."""
+    if isinstance(obj, Mapping):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, np.ndarray):
+        return to_jsonable(obj.tolist())
+    if isinstance(obj, (list, tuple, set, frozenset)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, np.generic):
+        return to_jsonable(obj.item())
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, (str, int, bool)) or obj is None:
+        return obj
+    if isinstance(obj, os.PathLike):
+        return os.fspath(obj)
+    return str(obj)
+
+
+def _cell(v: Any) -> Any:
+    if isinstance(v, np.generic):
+        v = v.item()
+    if isinstance(v, float):
+        return repr(v)
+    return v
+
+
+class RunOutput:
+    """Everything a run writes, in one directory.
+
+    * ``history(**row)``: one row of history.csv (header from the first row, flushed every row).
+    * ``write_csv(name, columns)``: a table ``name``.csv from ``{column: 1-D array}``.
+    * ``plot_xy(name, x, ys, xlabel, ylabel)``: ``name``.png.
+    * ``xdmf_path``: where fields go (``out_dir/fields.xdmf``).
+    * ``finish(summary)``: summary.json, written last and atomically.
+    * ``log(msg)``: a progress line on stdout, rank 0 only.
+    """
+
+    def __init__(self, out_dir: str | os.PathLike, comm=None):
+        self.out_dir = Path(out_dir)
+        self.comm = comm
+        self.rank = 0 if comm is None else comm.rank
+        self.size = 1 if comm is None else comm.size
+        self.is_root = self.rank == 0
+        if self.is_root:
+            self.out_dir.mkdir(parents=True, exist_ok=True)
+        if self.size > 1:
+            comm.barrier()
+        self._hist_file = None
+        self._hist_writer = None
+        self._hist_header: list[str] | None = None
+        self.finished = False
+
+    # -- paths ---------------------------------------------------------------------------------
+    def path(self, name: str) -> Path:
+        return self.out_dir / name
+
+    @property
+    def xdmf_path(self) -> Path:
+        return self.out_dir / "fields.xdmf"
+
+    @property
+    def history_path(self) -> Path:
+        return self.out_dir / "history.csv"
+
+    @property
+    def summary_path(self) -> Path:
+        return self.out_dir / "summary.json"
+
+    # -- progress ------------------------------------------------------------------------------
+    def log(self, msg: str) -> None:
+        if self.is_root:
+            print(msg, flush=True)
+
+    # -- tables --------------------------------------------------------------------------------
+    def history(self, **row: Any) -> None:
+        """Append one row to history.csv. Later rows may omit columns (left empty) but not add new ones."""
+        if self._hist_header is None:
+            self._hist_header = list(row)
+            if self.is_root:
+                self._hist_file = open(self.history_path, "w", newline="", encoding="utf-8")
+                self._hist_writer = csv.writer(self._hist_file)
+                self._hist_writer.writerow(self._hist_header)
+        else:
+            extra = [k for k in row if k not in self._hist_header]
+            if extra:
+                raise ValueError(f"history row has columns {extra} not in the header {self._hist_header}")
+        if self.is_root:
+            self._hist_writer.writerow([_cell(row.get(k, "")) for k in self._hist_header])
+            self._hist_file.flush()
+
+    def close_history(self) -> None:
+        if self._hist_file is not None:
+            self._hist_file.close()
+            self._hist_file = None
+
+    def write_csv(self, name: str, columns: Mapping[str, Any]) -> Path:
+        """Write ``name``(.csv) from equal-length 1-D columns. Returns the path."""
+        path = self.out_dir / (name if name.endswith(".csv") else name + ".csv")
+        cols = {k: np.asarray(v).ravel() for k, v in columns.items()}
+        lengths = {k: len(v) for k, v in cols.items()}
+        if len(set(lengths.values())) > 1:
+            raise ValueError(f"write_csv({name!r}): columns differ in length: {lengths}")
+        if self.is_root:
+            n = next(iter(lengths.values()), 0)
+            with open(path, "w", newline="", encoding="utf-8") as f:
+                w = csv.writer(f)
+                w.writerow(list(cols))
+                for i in range(n):
+                    w.writerow([_cell(c[i]) for c in cols.values()])
+        return path
+
+    # -- plots ---------------------------------------------------------------------------------
+    def plot_xy(self, name: str, x, ys: Mapping[str, Any], xlabel: str, ylabel: str,
+                title: str | None = None, styles: Mapping[str, str] | None = None) -> Path:
+        """Line plot ``name``(.png). ``ys``: label -> y array (against ``x``), or label -> (x_i, y_i) for a
+        curve with its own abscissa (reference data). ``styles``: label -> matplotlib format string."""
+        path = self.out_dir / (name if name.endswith(".png") else name + ".png")
+        if not self.is_root:
+            return path
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=(6.0, 4.2))
+        FigureCanvasAgg(fig)
+        ax = fig.add_subplot()
+        styles = styles or {}
+        for label, y in ys.items():
+            if isinstance(y, tuple) and len(y) == 2:
+                xi, yi = y
+            else:
+                xi, yi = x, y
+            fmt = styles.get(label)
+            if fmt:
+                ax.plot(np.asarray(xi), np.asarray(yi), fmt, label=label)
+            else:
+                ax.plot(np.asarray(xi), np.asarray(yi), label=label)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        if title:
+            ax.set_title(title)
+        ax.grid(True, alpha=0.3)
+        if len(ys) > 1:
+            ax.legend()
+        fig.tight_layout()
+        fig.savefig(path, dpi=120)
+        return path
+
+    # -- the end -------------------------------------------------------------------------------
+    def finish(self, summary: Mapping[str, Any]) -> Path:
+        """Write summary.json (last file of a run) atomically: tmp file then rename."""
+        self.close_history()
+        path = self.summary_path
+        if self.is_root:
+            tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+            with open(tmp, "w", encoding="utf-8") as f:
+                json.dump(to_jsonable(dict(summary)), f, indent=2, allow_nan=False)
+                f.write("\n")
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        if self.size > 1:
+            self.comm.barrier()
+        self.finished = True
+        return path
+
+    def __repr__(self) -> str:
+        return f"RunOutput({str(self.out_dir)!r}, rank={self.rank}/{self.size})"
