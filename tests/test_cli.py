@@ -1,0 +1,153 @@
+"""The CLI: bad scene files exit 2 without writing anything; the run/summary/error plumbing
+(with a stand-in runner); the deformation-table reader."""
+import json
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fenics_plast import cli, scenes
+
+REPO = Path(__file__).resolve().parent.parent
+
+GOOD = """
+[scene]
+name = "bar"
+kind = "bar_tension"
+
+[mesh]
+radius = 6.413
+length = 53.334
+cells_radial = 2
+cells_axial = 4
+
+[material]
+E = 206.9e3
+nu = 0.29
+
+[material.hardening]
+law = "linear"
+yield_stress = 450
+
+[loading]
+displacement = 8
+"""
+
+
+def run_cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "fenics_plast.cli", *map(str, args)],
+                          capture_output=True, text=True, cwd=cwd or REPO, timeout=120)
+
+
+@pytest.mark.parametrize("text, extra, key", [
+    ("[scene]\nname = 'x'\nkind = ", [], "TOML syntax"),
+    (GOOD.replace("nu = 0.29", "nu = 0.5"), [], "material.nu"),
+    (GOOD.replace("[loading]", "[loading]\nspeed = 3"), [], "loading.speed"),
+    (GOOD.replace("E = 206.9e3", "E = -1"), [], "material.E"),
+    (GOOD, ["--set", "material.hardening.yield_stress=-3"], "material.hardening.yield_stress"),
+    (GOOD, ["--set", "mesh.refine=two"], "mesh.refine"),
+])
+def test_bad_scene_exit_2_nothing_written(tmp_path, text, extra, key):
+    scene = tmp_path / "bad.toml"
+    scene.write_text(text)
+    out = tmp_path / "out"
+    r = run_cli("run", scene, "--out", out, *extra, cwd=tmp_path)
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.startswith("error: ")
+    assert "bad.toml" in r.stderr and key in r.stderr, r.stderr
+    assert not out.exists()
+    assert not (tmp_path / "results").exists()
+
+
+def test_point_bad_scene_exit_2(tmp_path):
+    scene = tmp_path / "bad.toml"
+    scene.write_text(GOOD.replace("nu = 0.29", "nu = 0.7"))
+    r = run_cli("point", scene, "--path", "uniaxial", "--to", "0.5", "--steps", "10", cwd=tmp_path)
+    assert r.returncode == 2 and "material.nu" in r.stderr
+
+
+def test_keys_prints_doc():
+    r = run_cli("keys")
+    assert r.returncode == 0
+    assert r.stdout == (REPO / "docs" / "SCENE_KEYS.md").read_text()
+
+
+# -- the run plumbing with a stand-in runner (in-process; needs mpi4py) -------------------------
+
+FAKE_RUNNER = '''
+import numpy as np
+from fenics_plast.errors import RunError
+
+def run(scene, output):
+    for i in range(3):
+        output.history(step=i, load_N=np.float64(10.0 * i))
+    output.write_csv("profile", {"z_mm": np.arange(3.0), "r_mm": np.ones(3)})
+    if scene.mesh.refine == 2:
+        raise RunError("no convergence at load fraction 0.5", {"last_load_fraction": 0.5})
+    return {"cells": np.int64(8), "dofs": 30, "converged": True, "final_radius_mm": np.float32(4.5),
+            "curve": np.array([1.0, 2.0])}
+'''
+
+
+@pytest.fixture
+def fake_runner(tmp_path, monkeypatch):
+    pytest.importorskip("mpi4py")
+    mod = tmp_path / "fake_runner_mod.py"
+    mod.write_text(FAKE_RUNNER)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setitem(scenes.RUNNERS, "bar_tension", "fake_runner_mod:run")
+    scene = tmp_path / "good.toml"
+    scene.write_text(GOOD)
+    return scene
+
+
+def test_run_writes_summary(fake_runner, tmp_path):
+    out = tmp_path / "out"
+    assert cli.main(["run", str(fake_runner), "--out", str(out)]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["scene"] == "bar" and s["kind"] == "bar_tension" and s["converged"] is True
+    assert s["active_physics"] == ["plasticity"] and s["mpi_ranks"] == 1
+    assert s["cells"] == 8 and s["final_radius_mm"] == 4.5 and s["curve"] == [1.0, 2.0]
+    assert s["wall_time_s"] >= 0 and s["scene_file"] == str(fake_runner)
+    hist = (out / "history.csv").read_text().splitlines()
+    assert hist[0] == "step,load_N" and len(hist) == 4
+    assert (out / "profile.csv").read_text().startswith("z_mm,r_mm")
+    assert not list(out.glob(".*tmp*"))
+
+
+def test_run_error_exit_1_summary_kept(fake_runner, tmp_path, capsys):
+    out = tmp_path / "out2"
+    assert cli.main(["run", str(fake_runner), "--out", str(out), "--set", "mesh.refine=2"]) == 1
+    assert "no convergence" in capsys.readouterr().err
+    s = json.loads((out / "summary.json").read_text())
+    assert s["converged"] is False and "no convergence" in s["error"]
+    assert s["last_load_fraction"] == 0.5
+    assert len((out / "history.csv").read_text().splitlines()) == 4
+
+
+def test_missing_runner_module_exit_2(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(scenes.RUNNERS, "bar_tension", "fenics_plast.scenes.no_such_module:run")
+    scene = tmp_path / "good.toml"
+    scene.write_text(GOOD)
+    out = tmp_path / "out3"
+    assert cli.main(["run", str(scene), "--out", str(out)]) == 2
+    assert "no_such_module" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_read_deformation_table(tmp_path):
+    f = tmp_path / "F.csv"
+    f.write_text(textwrap.dedent("""\
+        t,F11,F12,F13,F21,F22,F23,F31,F32,F33
+        0,1,0,0,0,1,0,0,0,1
+        1,1.1,0.2,0,0,1,0,0,0,0.95
+        """))
+    t, F = cli.read_deformation_table(f)
+    assert t.tolist() == [0.0, 1.0]
+    assert F.shape == (2, 3, 3) and F[1, 0, 1] == 0.2 and F[1, 2, 2] == 0.95
+    f.write_text("t,F11\n0,1\n")
+    with pytest.raises(ValueError, match="header"):
+        cli.read_deformation_table(f)
