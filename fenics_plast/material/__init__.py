@@ -1,0 +1,113 @@
+"""Constitutive models: the seed (Simo-Ortiz / García Garino) finite-strain J2 model and its
+isochoric variant.  Pure array code: no dolfinx, UFL or MPI here.
+
+>>> mat = Material(E=117e3, nu=0.35, hardening=Hardening("linear", yield_stress=400.0, modulus=100.0))
+>>> tau, binv, eqps, a = mat.update(Fu, binv_n, eqps_n)        # shapes (n,3,3), (n,3,3), (n,), (n,3,3,3,3)
+
+The equations live in :mod:`fenics_plast.material.kernels`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import kernels
+from .hardening import Hardening
+
+__all__ = ["Material", "Hardening", "MODELS"]
+
+MODELS = {"seed": kernels.SEED, "isochoric": kernels.ISOCHORIC}
+
+
+class Material:
+    """Finite-strain J2 elastoplastic material.
+
+    Parameters
+    ----------
+    E, nu : Young's modulus [MPa] and Poisson's ratio.
+    hardening : :class:`Hardening` or None (None: hyperelastic, no plasticity).
+    model : "isochoric" (exponential map on the logarithmic elastic strain, plastically
+        incompressible; the default) or "seed" (Almansi strain, additive update of b_e^-1,
+        seed eqs. 9-14).
+    yield_tol : relative tolerance on f > 0 that counts as yielding.
+    """
+
+    def __init__(self, E: float, nu: float, hardening: Hardening | None = None, model: str = "isochoric",
+                 yield_tol: float = 1e-12):
+        if not E > 0:
+            raise ValueError(f"E must be > 0, got {E}")
+        if not -1.0 < nu < 0.5:
+            raise ValueError(f"nu must satisfy -1 < nu < 0.5, got {nu}")
+        if model not in MODELS:
+            raise ValueError(f"unknown model {model!r}; allowed: {sorted(MODELS)}")
+        self.E, self.nu, self.model, self.hardening = float(E), float(nu), model, hardening
+        self.yield_tol = float(yield_tol)
+        self._model = MODELS[model]
+        self._law = hardening.code if hardening is not None else kernels.ELASTIC
+        self._hp = hardening.params if hardening is not None else np.zeros(1)
+        self._no_tangent = np.zeros((1, 3, 3, 3, 3))
+
+    @classmethod
+    def from_scene(cls, section) -> "Material":
+        """Build from a validated scene's [material] section (attribute access)."""
+        hard = getattr(section, "hardening", None)
+        hardening = None
+        if hard is not None:
+            kw = {k: v for k, v in vars(hard).items() if k != "law" and not k.startswith("_")}
+            hardening = Hardening(hard.law, **kw)
+        return cls(section.E, section.nu, hardening, model=section.model)
+
+    @property
+    def lame(self) -> tuple[float, float]:
+        """Lamé constants (lambda, mu) [MPa]."""
+        lam = self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
+        return lam, self.E / (2 * (1 + self.nu))
+
+    @property
+    def bulk_modulus(self) -> float:
+        lam, mu = self.lame
+        return lam + 2 * mu / 3
+
+    def wave_speed(self, density: float) -> float:
+        """Dilatational wave speed sqrt((lambda + 2 mu)/rho) [mm/s] for density in tonne/mm^3."""
+        lam, mu = self.lame
+        return float(np.sqrt((lam + 2 * mu) / density))
+
+    def update_into(self, Fu, binv_n, eqps_n, tau, binv, eqps, a=None) -> int:
+        """Constitutive update of n points into preallocated arrays (see :meth:`update`).
+
+        Returns the number of points that yielded.
+        """
+        lam, mu = self.lame
+        want = a is not None
+        return kernels.update_points(self._model, Fu, binv_n, eqps_n, lam, mu, self._law, self._hp,
+                                     self.yield_tol, tau, binv, eqps, a if want else self._no_tangent, want)
+
+    def update(self, Fu, binv_n, eqps_n, tangent: bool = True):
+        """Return-mapping update from the converged state (binv_n, eqps_n) under the increment Fu.
+
+        Fu : (n,3,3) incremental deformation gradient F_{n+1} F_n^-1.
+        binv_n : (n,3,3) elastic Finger tensor b_e^-1 at t_n (identity when virgin).
+        eqps_n : (n,) equivalent plastic strain at t_n.
+        Returns tau (n,3,3) Kirchhoff stress [MPa], binv (n,3,3), eqps (n,), and the spatial
+        consistent tangent a (n,3,3,3,3) [MPa], delta tau_ij = a_ijkl (delta F F^-1)_kl,
+        or None when tangent is False.
+        """
+        Fu = np.ascontiguousarray(Fu, dtype=float).reshape(-1, 3, 3)
+        binv_n = np.ascontiguousarray(binv_n, dtype=float).reshape(-1, 3, 3)
+        eqps_n = np.ascontiguousarray(eqps_n, dtype=float).reshape(-1)
+        n = Fu.shape[0]
+        tau, binv, eqps = np.empty((n, 3, 3)), np.empty((n, 3, 3)), np.empty(n)
+        a = np.empty((n, 3, 3, 3, 3)) if tangent else None
+        self.update_into(Fu, binv_n, eqps_n, tau, binv, eqps, a)
+        return tau, binv, eqps, a
+
+    def energy(self, binv) -> np.ndarray:
+        """Stored elastic energy per reference volume [MPa = mJ/mm^3], shape (n,)."""
+        binv = np.ascontiguousarray(binv, dtype=float).reshape(-1, 3, 3)
+        out = np.empty(binv.shape[0])
+        lam, mu = self.lame
+        kernels.energy_points(self._model, binv, lam, mu, out)
+        return out
+
+    def __repr__(self):
+        return f"Material(E={self.E}, nu={self.nu}, model={self.model!r}, hardening={self.hardening!r})"

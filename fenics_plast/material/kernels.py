@@ -1,0 +1,397 @@
+r"""The Simo-Ortiz elastoplastic update at quadrature points (numba kernels).
+
+State per point: the elastic Finger tensor :math:`b_e^{-1} = F_e^{-T} F_e^{-1}` and the
+equivalent plastic strain :math:`\bar\varepsilon_p`.  Input: the incremental deformation
+gradient :math:`F_u = F_{n+1} F_n^{-1}` (seed eq. 10).  Output: Kirchhoff stress
+:math:`\tau = J\sigma`, updated state and the spatial consistent tangent
+:math:`a_{ijkl}`, defined by :math:`\delta\tau_{ij} = a_{ijkl}\,(\delta F F^{-1})_{kl}`.
+
+Equation numbers are those of García Garino, Oliver & Botello (the seed, ``shared/seed``).
+
+Elastic predictor (both models)
+    ``bt = Fu^-T  binv_n  Fu^-1``                                     (11)
+
+Seed model (``SEED``): Almansi elastic strain, quadratic energy
+    ``e   = 1/2 (I - bt)``                                             (Table 1)
+    ``psi = 1/2 lam (tr e)^2 + mu e:e``                                (9)
+    ``tau = d psi / d e = lam tr(e) I + 2 mu e``                       (7)
+    plastic corrector: ``binv = bt + 2 dgamma n``, ``n = 3/2 s/q``     (14)
+    The additive update of b_e^-1 with a deviatoric n does not keep det b_e^-1: plastic
+    flow changes the volume (first order in the increment, ~1 % per unit strain in copper).
+
+Isochoric variant (``ISOCHORIC``, Simo 1992): logarithmic elastic strain, exponential map
+    ``eps = 1/2 ln b_e = -1/2 ln bt``  (spectral decomposition of bt)
+    ``psi = 1/2 lam (tr eps)^2 + mu eps:eps``, ``tau = lam tr(eps) I + 2 mu eps``
+    plastic corrector: ``eps = eps_tr - dgamma n``  <=>  ``binv = exp(2 dgamma n) bt``
+    (coaxial), exactly volume preserving since tr n = 0.
+
+Both: von Mises yield on the Kirchhoff stress, ``f = q - sigma_y(eps_p)``,
+``q = sqrt(3/2 s:s)``, ``s = dev tau``, associative flow (5), radial return
+``q_tr - 3 mu dgamma - sigma_y(eps_p_n + dgamma) = 0``, ``eps_p = eps_p_n + dgamma``.
+(The seed writes f in terms of sigma = tau/J; yielding on tau is Simo's choice: for metals
+J_e = 1 + O(1e-3) and, unlike sigma, tau does not depend on the spurious plastic dilatation.)
+
+Algorithmic modulus w.r.t. the trial strain (same form for both models; Simo & Hughes, Box 3.2):
+    ``D = kappa I(x)I + 2 mu theta I_dev - c  N(x)N``
+    ``theta = 1 - 3 mu dgamma / q_tr``, ``c = 6 mu^2 (1/(3 mu + H) - dgamma/q_tr)``,
+    ``N = s_tr/|s_tr|``, ``H = sigma_y'``  (elastic: theta = 1, c = 0)
+Spatial tangent, from ``delta bt = -(l^T bt + bt l)``, ``l = delta F F^-1``:
+    seed:      ``a_ijkl = sum_m D_ijlm bt_mk``
+    isochoric: ``a_ijkl = sum_m (D : dln(bt)/dbt)_ijlm bt_mk``, built in the eigenbasis of bt.
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from .hardening import flow_stress
+
+SEED, ISOCHORIC = 0, 1
+ELASTIC = -1  # hardening code meaning "no plasticity"
+
+_njit = numba.njit(cache=True, fastmath=False, nogil=True)
+
+
+@_njit
+def _inverse3(A, out):
+    """Inverse of a 3x3 matrix by cofactors; returns det(A)."""
+    c00 = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
+    c01 = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
+    c02 = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
+    det = A[0, 0] * c00 + A[0, 1] * c01 + A[0, 2] * c02
+    r = 1.0 / det
+    out[0, 0] = c00 * r
+    out[1, 0] = c01 * r
+    out[2, 0] = c02 * r
+    out[0, 1] = (A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]) * r
+    out[1, 1] = (A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]) * r
+    out[2, 1] = (A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]) * r
+    out[0, 2] = (A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]) * r
+    out[1, 2] = (A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]) * r
+    out[2, 2] = (A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]) * r
+    return det
+
+
+@_njit
+def _eigh3(S, w, Q):
+    """Eigen-decomposition of a symmetric 3x3 matrix by cyclic Jacobi rotations.
+
+    S is not modified; w (3,) receives the eigenvalues, the columns of Q (3,3) the
+    eigenvectors: S = Q diag(w) Q^T.  Robust for (nearly) repeated eigenvalues.
+    """
+    a00, a11, a22 = S[0, 0], S[1, 1], S[2, 2]
+    a01, a02, a12 = S[0, 1], S[0, 2], S[1, 2]
+    for i in range(3):
+        for j in range(3):
+            Q[i, j] = 1.0 if i == j else 0.0
+    scale = abs(a00) + abs(a11) + abs(a22) + 1e-300
+    for _sweep in range(30):
+        off = abs(a01) + abs(a02) + abs(a12)
+        if off <= 1e-17 * scale:
+            break
+        for pq in range(3):
+            if pq == 0:
+                p, q = 0, 1
+                apq, app, aqq = a01, a00, a11
+            elif pq == 1:
+                p, q = 0, 2
+                apq, app, aqq = a02, a00, a22
+            else:
+                p, q = 1, 2
+                apq, app, aqq = a12, a11, a22
+            if apq == 0.0:
+                continue
+            theta = (aqq - app) / (2.0 * apq)
+            t = (1.0 if theta >= 0.0 else -1.0) / (abs(theta) + math.sqrt(theta * theta + 1.0))
+            c = 1.0 / math.sqrt(t * t + 1.0)
+            s = t * c
+            # rotate the symmetric matrix held in (a00, a11, a22, a01, a02, a12)
+            if pq == 0:
+                a00, a11 = app - t * apq, aqq + t * apq
+                a01 = 0.0
+                r2 = a02
+                a02 = c * r2 - s * a12
+                a12 = s * r2 + c * a12
+            elif pq == 1:
+                a00, a22 = app - t * apq, aqq + t * apq
+                a02 = 0.0
+                r1 = a01
+                a01 = c * r1 - s * a12
+                a12 = s * r1 + c * a12
+            else:
+                a11, a22 = app - t * apq, aqq + t * apq
+                a12 = 0.0
+                r0 = a01
+                a01 = c * r0 - s * a02
+                a02 = s * r0 + c * a02
+            for k in range(3):
+                qkp, qkq = Q[k, p], Q[k, q]
+                Q[k, p] = c * qkp - s * qkq
+                Q[k, q] = s * qkp + c * qkq
+    w[0], w[1], w[2] = a00, a11, a22
+
+
+@_njit
+def _plastic_multiplier(q_tr, eps_n, mu, law, hp):
+    """Solve the radial-return equation q_tr - 3 mu dg - sigma_y(eps_n + dg) = 0 for dg >= 0.
+
+    Newton safeguarded by bisection on [0, q_tr/(3 mu)] (g(0) > 0, g(hi) = -sigma_y <= 0).
+    Returns (dg, H) with H = sigma_y'(eps_n + dg).
+    """
+    lo, hi = 0.0, q_tr / (3.0 * mu)
+    dg = 0.0
+    for _it in range(100):
+        sy, h = flow_stress(law, hp, eps_n + dg)
+        g = q_tr - 3.0 * mu * dg - sy
+        if abs(g) <= 1e-14 * q_tr:
+            break
+        if g > 0.0:
+            lo = dg
+        else:
+            hi = dg
+        slope = 3.0 * mu + h
+        nxt = dg + g / slope if slope > 0.0 else -1.0
+        if not (lo < nxt < hi):
+            nxt = 0.5 * (lo + hi)
+        if nxt == dg:
+            break
+        dg = nxt
+    sy, h = flow_stress(law, hp, eps_n + dg)
+    return dg, h
+
+
+@_njit
+def _return_map(q_tr, eps_n, mu, law, hp, yield_tol):
+    """Von Mises check and radial return for a trial equivalent stress q_tr [MPa].
+
+    Returns (dgamma, theta, c) of the algorithmic modulus; dgamma = 0 if elastic.
+    """
+    if law == ELASTIC:
+        return 0.0, 1.0, 0.0
+    sy_n = flow_stress(law, hp, eps_n)[0]
+    if q_tr - sy_n <= yield_tol * max(sy_n, 1e-300) or q_tr == 0.0:
+        return 0.0, 1.0, 0.0
+    dg, h = _plastic_multiplier(q_tr, eps_n, mu, law, hp)
+    theta = 1.0 - 3.0 * mu * dg / q_tr
+    c = 6.0 * mu * mu * (1.0 / (3.0 * mu + h) - dg / q_tr)
+    return dg, theta, c
+
+
+@_njit
+def _seed_point(Fi, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_tangent, bt, s):
+    """Seed model at one point. Fi = Fu^-1 (3,3); Bn = binv_n; writes tau, Bout, a."""
+    # elastic predictor (11): bt = Fi^T Bn Fi
+    for i in range(3):
+        for j in range(i, 3):
+            acc = 0.0
+            for k in range(3):
+                row = 0.0
+                for m in range(3):
+                    row += Bn[k, m] * Fi[m, j]
+                acc += Fi[k, i] * row
+            bt[i, j] = acc
+            bt[j, i] = acc
+    # Almansi strain and trial Kirchhoff stress (7), (9)
+    tr_e = 0.5 * (3.0 - bt[0, 0] - bt[1, 1] - bt[2, 2])
+    p = (lam + 2.0 * mu / 3.0) * tr_e  # Kirchhoff mean stress
+    for i in range(3):
+        for j in range(3):
+            s[i, j] = -mu * bt[i, j] + (mu if i == j else 0.0)  # 2 mu e
+    mean = (s[0, 0] + s[1, 1] + s[2, 2]) / 3.0
+    for i in range(3):
+        s[i, i] -= mean
+    q_tr = math.sqrt(1.5 * np.sum(s * s))
+    dg, theta, c = _return_map(q_tr, eps_n, mu, law, hp, tol)
+    # plastic corrector (14): binv = bt + 2 dg n,  n = 3/2 s_tr/q_tr;  tau = tau_tr - 2 mu dg n
+    fac = 3.0 * dg / q_tr if dg > 0.0 else 0.0
+    for i in range(3):
+        for j in range(3):
+            Bout[i, j] = bt[i, j] + fac * s[i, j]
+            tau[i, j] = (1.0 - mu * fac) * s[i, j] + (p if i == j else 0.0)
+    if not want_tangent:
+        return dg
+    # a_ijkl = (kappa - 2 mu theta/3) d_ij bt_lk + mu theta (d_il bt_jk + d_jl bt_ik) - c N_ij (N bt)_lk
+    kap = lam + 2.0 * mu / 3.0
+    c1 = kap - 2.0 * mu * theta / 3.0
+    c2 = mu * theta
+    nrm = math.sqrt(np.sum(s * s))
+    for i in range(3):
+        for j in range(3):
+            for k in range(3):
+                for l in range(3):
+                    v = 0.0
+                    if i == j:
+                        v += c1 * bt[l, k]
+                    if i == l:
+                        v += c2 * bt[j, k]
+                    if j == l:
+                        v += c2 * bt[i, k]
+                    a[i, j, k, l] = v
+    if c != 0.0:
+        for i in range(3):
+            for j in range(3):
+                nij = s[i, j] / nrm
+                for l in range(3):
+                    for k in range(3):
+                        nb = 0.0
+                        for m in range(3):
+                            nb += s[l, m] * bt[m, k]
+                        a[i, j, k, l] -= c * nij * nb / nrm
+    return dg
+
+
+@_njit
+def _g_log(b1, b2):
+    """(ln b1 - ln b2)/(b1 - b2), the divided difference of ln, stable for b1 ~ b2."""
+    d = (b1 - b2) / b2
+    if abs(d) < 1e-5:
+        return (1.0 - 0.5 * d + d * d / 3.0) / b2
+    return math.log1p(d) / (b1 - b2)
+
+
+@_njit
+def _isochoric_point(Fi, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_tangent, bt, s, Q, beta,
+                     dtau):
+    """Isochoric (exponential map, logarithmic strain) model at one point."""
+    for i in range(3):
+        for j in range(i, 3):
+            acc = 0.0
+            for k in range(3):
+                row = 0.0
+                for m in range(3):
+                    row += Bn[k, m] * Fi[m, j]
+                acc += Fi[k, i] * row
+            bt[i, j] = acc
+            bt[j, i] = acc
+    _eigh3(bt, beta, Q)
+    # principal logarithmic elastic strains eps_A = -1/2 ln beta_A and Kirchhoff stresses
+    e0, e1, e2 = -0.5 * math.log(beta[0]), -0.5 * math.log(beta[1]), -0.5 * math.log(beta[2])
+    tr_e = e0 + e1 + e2
+    p = (lam + 2.0 * mu / 3.0) * tr_e
+    # principal trial deviator, stored on the diagonal of s
+    for i in range(3):
+        for j in range(3):
+            s[i, j] = 0.0
+    s[0, 0] = 2.0 * mu * (e0 - tr_e / 3.0)
+    s[1, 1] = 2.0 * mu * (e1 - tr_e / 3.0)
+    s[2, 2] = 2.0 * mu * (e2 - tr_e / 3.0)
+    q_tr = math.sqrt(1.5 * (s[0, 0] ** 2 + s[1, 1] ** 2 + s[2, 2] ** 2))
+    dg, theta, c = _return_map(q_tr, eps_n, mu, law, hp, tol)
+    fac = 1.5 * dg / q_tr if dg > 0.0 else 0.0  # n_A = 3/2 s_A / q_tr
+    t_p = (p + (1.0 - 2.0 * mu * fac) * s[0, 0], p + (1.0 - 2.0 * mu * fac) * s[1, 1],
+           p + (1.0 - 2.0 * mu * fac) * s[2, 2])
+    # exponential map: eps_A <- eps_A - dg n_A ;  binv = Q diag(exp(-2 eps_A)) Q^T
+    bn = (math.exp(-2.0 * (e0 - fac * s[0, 0])), math.exp(-2.0 * (e1 - fac * s[1, 1])),
+          math.exp(-2.0 * (e2 - fac * s[2, 2])))
+    for i in range(3):
+        for j in range(i, 3):
+            vt = 0.0
+            vb = 0.0
+            for A in range(3):
+                qq = Q[i, A] * Q[j, A]
+                vt += t_p[A] * qq
+                vb += bn[A] * qq
+            tau[i, j] = vt
+            tau[j, i] = vt
+            Bout[i, j] = vb
+            Bout[j, i] = vb
+    if not want_tangent:
+        return dg
+    # tangent, built in the eigenbasis of bt for each unit l = e_k (x) e_l:
+    #   delta eps'_AA = Q_kA Q_lA ;  delta eps'_AB = g_AB (beta_B Q_lA Q_kB + beta_A Q_kA Q_lB)/2
+    #   delta tau' = D' delta eps' ;  a_ijkl = (Q delta tau' Q^T)_ij
+    kap = lam + 2.0 * mu / 3.0
+    nrm = math.sqrt(s[0, 0] ** 2 + s[1, 1] ** 2 + s[2, 2] ** 2)
+    N0 = s[0, 0] / nrm if nrm > 0.0 else 0.0
+    N1 = s[1, 1] / nrm if nrm > 0.0 else 0.0
+    N2 = s[2, 2] / nrm if nrm > 0.0 else 0.0
+    g01 = _g_log(beta[0], beta[1])
+    g02 = _g_log(beta[0], beta[2])
+    g12 = _g_log(beta[1], beta[2])
+    for k in range(3):
+        for l in range(3):
+            d0 = Q[k, 0] * Q[l, 0]
+            d1 = Q[k, 1] * Q[l, 1]
+            d2 = Q[k, 2] * Q[l, 2]
+            tr = d0 + d1 + d2
+            nd = c * (N0 * d0 + N1 * d1 + N2 * d2)
+            vol = kap * tr - 2.0 * mu * theta * tr / 3.0
+            dtau[0, 0] = vol + 2.0 * mu * theta * d0 - nd * N0
+            dtau[1, 1] = vol + 2.0 * mu * theta * d1 - nd * N1
+            dtau[2, 2] = vol + 2.0 * mu * theta * d2 - nd * N2
+            # shear: 2 mu theta delta eps'_AB ; the symmetric off-diagonal pair shares the value
+            v01 = mu * theta * g01 * (beta[1] * Q[l, 0] * Q[k, 1] + beta[0] * Q[k, 0] * Q[l, 1])
+            v02 = mu * theta * g02 * (beta[2] * Q[l, 0] * Q[k, 2] + beta[0] * Q[k, 0] * Q[l, 2])
+            v12 = mu * theta * g12 * (beta[2] * Q[l, 1] * Q[k, 2] + beta[1] * Q[k, 1] * Q[l, 2])
+            dtau[0, 1] = v01
+            dtau[1, 0] = v01
+            dtau[0, 2] = v02
+            dtau[2, 0] = v02
+            dtau[1, 2] = v12
+            dtau[2, 1] = v12
+            for i in range(3):
+                for j in range(i, 3):
+                    v = 0.0
+                    for A in range(3):
+                        qa = Q[i, A]
+                        for B in range(3):
+                            v += qa * dtau[A, B] * Q[j, B]
+                    a[i, j, k, l] = v
+                    a[j, i, k, l] = v
+    return dg
+
+
+@_njit
+def update_points(model, Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, binv, eqps, a, want_tangent):
+    """Update n points: Fu, binv_n (n,3,3), eqps_n (n,) -> tau, binv (n,3,3), eqps (n,), a (n,3,3,3,3).
+
+    a is ignored (may be a dummy (1,3,3,3,3) array) when want_tangent is False.
+    Returns the number of points that yielded in this update.
+    """
+    n = Fu.shape[0]
+    Fi = np.empty((3, 3))
+    bt = np.empty((3, 3))
+    s = np.empty((3, 3))
+    Q = np.empty((3, 3))
+    beta = np.empty(3)
+    dtau = np.empty((3, 3))
+    nplastic = 0
+    for q in range(n):
+        _inverse3(Fu[q], Fi)
+        aq = a[q] if want_tangent else a[0]
+        if model == SEED:
+            dg = _seed_point(Fi, binv_n[q], eqps_n[q], lam, mu, law, hp, yield_tol, tau[q], binv[q], aq,
+                             want_tangent, bt, s)
+        else:
+            dg = _isochoric_point(Fi, binv_n[q], eqps_n[q], lam, mu, law, hp, yield_tol, tau[q], binv[q], aq,
+                                  want_tangent, bt, s, Q, beta, dtau)
+        eqps[q] = eqps_n[q] + dg
+        if dg > 0.0:
+            nplastic += 1
+    return nplastic
+
+
+@_njit
+def energy_points(model, binv, lam, mu, out):
+    """Stored elastic energy psi [MPa = mJ/mm^3 of reference volume] of n points, eq. (9)."""
+    Q = np.empty((3, 3))
+    beta = np.empty(3)
+    e = np.empty(3)
+    for q in range(binv.shape[0]):
+        B = binv[q]
+        if model == SEED:
+            tr = 0.5 * (3.0 - B[0, 0] - B[1, 1] - B[2, 2])
+            ee = 0.0
+            for i in range(3):
+                for j in range(3):
+                    eij = 0.5 * ((1.0 if i == j else 0.0) - B[i, j])
+                    ee += eij * eij
+        else:
+            _eigh3(B, beta, Q)
+            for A in range(3):
+                e[A] = -0.5 * math.log(beta[A])
+            tr = e[0] + e[1] + e[2]
+            ee = e[0] ** 2 + e[1] ** 2 + e[2] ** 2
+        out[q] = 0.5 * lam * tr * tr + mu * ee
