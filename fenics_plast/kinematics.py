@@ -1,0 +1,109 @@
+"""UFL kinematics for 2-D models carrying 3x3 tensors.
+
+geometry "axisymmetric": x[0] = r, x[1] = z, tensor axes (r, z, theta), hoop gradient w_r / r,
+weight 2 pi r (integrals are totals over the full revolution).
+geometry "plane_strain": axes (x, y, z), zero out-of-plane gradient, weight 1 (per unit depth).
+
+This module holds the ONE internal-force path (``internal_virtual_work``) used by the static
+and the explicit solvers: R_u = int (J/theta) tau : (Grad v F^-1) w dV (theta = J for plain Q1).
+"""
+from __future__ import annotations
+
+import math
+
+import ufl
+
+GEOMETRIES = ("axisymmetric", "plane_strain")
+QUADRATURE_DEGREE = 2
+
+
+class Kinematics:
+    def __init__(self, mesh, geometry: str = "axisymmetric", degree: int = QUADRATURE_DEGREE):
+        if geometry not in GEOMETRIES:
+            raise ValueError(f"geometry must be one of {GEOMETRIES}, got {geometry!r}")
+        self.mesh = mesh
+        self.geometry = geometry
+        self.degree = degree
+        self.x = ufl.SpatialCoordinate(mesh)
+        self.axisymmetric = geometry == "axisymmetric"
+        self.weight = 2.0 * math.pi * self.x[0] if self.axisymmetric else 1.0
+        self.metadata = {"quadrature_degree": degree, "quadrature_scheme": "default"}
+        self.dx = ufl.Measure("dx", domain=mesh, metadata=self.metadata)
+        self.I = ufl.Identity(3)
+
+    # -- gradients -------------------------------------------------------------------------
+    def grad(self, w):
+        """3x3 reference gradient of a 2-vector field."""
+        g = ufl.grad(w)
+        hoop = w[0] / self.x[0] if self.axisymmetric else 0.0
+        return ufl.as_matrix([[g[0, 0], g[0, 1], 0.0],
+                              [g[1, 0], g[1, 1], 0.0],
+                              [0.0, 0.0, hoop]])
+
+    def F(self, u):
+        return self.I + self.grad(u)
+
+    def J(self, u):
+        return ufl.det(self.F(u))
+
+    def Fbar(self, u, theta=None):
+        """F-bar: (theta / J)^(1/3) F; theta=None gives F."""
+        F = self.F(u)
+        if theta is None:
+            return F
+        return (theta / ufl.det(F)) ** (1.0 / 3.0) * F
+
+    def Fu(self, u, theta, u_n, theta_n):
+        """Incremental deformation gradient Fbar(u, theta) Fbar(u_n, theta_n)^-1."""
+        return ufl.dot(self.Fbar(u, theta), ufl.inv(self.Fbar(u_n, theta_n)))
+
+    # -- weak forms --------------------------------------------------------------------------
+    def internal_virtual_work(self, u, theta, tau, v):
+        """R_u = int (J/theta) tau : (Grad v F^-1) w dV  (theta None: plain, factor 1)."""
+        F = self.F(u)
+        gv = ufl.dot(self.grad(v), ufl.inv(F))
+        factor = 1.0 if theta is None else ufl.det(F) / theta
+        return factor * ufl.inner(tau, gv) * self.weight * self.dx
+
+    def internal_virtual_work_derivative(self, u, theta, tau, a, v, du, dtheta=None):
+        """delta R_u along (du, dtheta); a is the spatial tangent, delta tau = a : (dFbar Fbar^-1).
+
+        ``a`` has shape (3,3,3,3) or (9,9) (row 3i+j, column 3k+l; what QuadratureMap stores).
+        """
+        i, j, k, l_ = ufl.indices(4)
+        F = self.F(u)
+        Finv = ufl.inv(F)
+        gv = ufl.dot(self.grad(v), Finv)
+        lu = ufl.dot(self.grad(du), Finv)
+        if theta is None:
+            lbar = lu
+            factor = 1.0
+            dfactor = 0.0
+        else:
+            J = ufl.det(F)
+            factor = J / theta
+            lbar = lu - (ufl.tr(lu) / 3.0) * self.I + (dtheta / (3.0 * theta)) * self.I
+            dfactor = factor * (ufl.tr(lu) - dtheta / theta)
+        if ufl.shape(a) == (9, 9):    # tangent stored as a 9x9 matrix a[3i+j, 3k+l]
+            lvec = ufl.as_vector([lbar[m // 3, m % 3] for m in range(9)])
+            dvec = ufl.dot(a, lvec)
+            dtau = ufl.as_matrix([[dvec[3 * r + c] for c in range(3)] for r in range(3)])
+        else:
+            dtau = ufl.as_tensor(a[i, j, k, l_] * lbar[k, l_], (i, j))
+        integrand = (dfactor * ufl.inner(tau, gv) + factor * ufl.inner(dtau, gv)
+                     - factor * ufl.inner(tau, ufl.dot(gv, lu)))
+        return integrand * self.weight * self.dx
+
+    def dilatation_residual(self, u, theta, q):
+        """R_theta = int (theta - J) q w dV."""
+        return (theta - ufl.det(self.F(u))) * q * self.weight * self.dx
+
+    def dilatation_residual_derivative(self, u, q, du, dtheta):
+        """delta R_theta = int (dtheta - J tr(Grad du F^-1)) q w dV."""
+        F = self.F(u)
+        lu = ufl.dot(self.grad(du), ufl.inv(F))
+        return (dtheta - ufl.det(F) * ufl.tr(lu)) * q * self.weight * self.dx
+
+    def volume(self):
+        """UFL form of the (weighted) reference volume: int w dV."""
+        return ufl.as_ufl(self.weight) * self.dx

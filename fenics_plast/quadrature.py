@@ -1,0 +1,149 @@
+"""Quadrature-point data and the update/commit cycle around a material.
+
+``QuadratureMap`` evaluates a UFL expression of the incremental deformation gradient Fu at the
+quadrature points of the owned cells (one compiled ``fem.Expression``), runs
+``material.update_into`` from the COMMITTED state (binv, eqps), and writes the Kirchhoff stress
+tau (and the spatial tangent a) into quadrature Functions used by the forms. The tangent is stored as a 9x9 tensor per point,
+a[3i+j, 3k+l] = a_ijkl (basix 0.5 has no rank-4 tensor elements); ``a_values`` is (n,3,3,3,3).
+The trial state is kept until ``commit()``; nothing is needed to restore since every update
+starts from the committed state.
+
+Never write a quadrature Function to XDMF (segfaults in dolfinx 0.5.2): use ``cell_mean``.
+"""
+from __future__ import annotations
+
+import basix
+import numpy as np
+import ufl
+from dolfinx import cpp, fem
+
+
+class MaterialUpdateError(RuntimeError):
+    """Non-finite values from the material update."""
+
+
+_BASIX_CELL = {"quadrilateral": basix.CellType.quadrilateral, "triangle": basix.CellType.triangle}
+
+
+class QuadratureMap:
+    def __init__(self, mesh, kin, material, Fu_expr, degree=2, tangent=True):
+        self.mesh = mesh
+        self.kin = kin
+        self.material = material
+        self.degree = degree
+        self.has_tangent = bool(tangent)
+        cell = mesh.ufl_cell()
+        self.points, self.weights = basix.make_quadrature(
+            basix.QuadratureType.Default, _BASIX_CELL[cell.cellname()], degree)
+        self.nq = len(self.weights)
+        tdim = mesh.topology.dim
+        imap = mesh.topology.index_map(tdim)
+        self.n_owned = imap.size_local
+        self.cells = np.arange(self.n_owned, dtype=np.int32)
+        self.n = self.n_owned * self.nq          # owned quadrature points
+
+        kw = dict(degree=degree, quad_scheme="default")
+        self.QT = fem.FunctionSpace(mesh, ufl.TensorElement("Quadrature", cell, shape=(3, 3), **kw))
+        self.Q = fem.FunctionSpace(mesh, ufl.FiniteElement("Quadrature", cell, **kw))
+        self.tau = fem.Function(self.QT, name="tau")
+        if self.has_tangent:
+            self.QA = fem.FunctionSpace(mesh, ufl.TensorElement("Quadrature", cell, shape=(9, 9), **kw))
+            self.a = fem.Function(self.QA, name="tangent")
+        else:
+            self.QA, self.a = None, None
+
+        # qp dofmap: is it trivial (dof = cell*nq + q) on the owned cells?
+        dofs = self.QT.dofmap.list.array.reshape(-1, self.nq)[: self.n_owned]
+        self.trivial = bool(np.array_equal(dofs.reshape(-1), np.arange(self.n)))
+        self._qdofs = dofs.reshape(-1)           # block index of each owned qp
+
+        # compiled expression of Fu and its buffer
+        self.Fu_expr = fem.Expression(Fu_expr, self.points)
+        self._Fu = np.zeros((self.n_owned, self.nq * 9))
+
+        # committed and trial state
+        self.binv = np.tile(np.eye(3), (self.n, 1, 1))
+        self.eqps = np.zeros(self.n)
+        self.binv_trial = self.binv.copy()
+        self.eqps_trial = self.eqps.copy()
+        if self.trivial:
+            self.tau_values = self.tau.x.array[: self.n * 9].reshape(self.n, 3, 3)
+            self.a_values = (self.a.x.array[: self.n * 81].reshape(self.n, 3, 3, 3, 3)
+                             if self.has_tangent else None)
+        else:
+            self.tau_values = np.zeros((self.n, 3, 3))
+            self.a_values = np.zeros((self.n, 3, 3, 3, 3)) if self.has_tangent else None
+        self._cell_weights = None
+        self._dg0 = None
+
+    # -- update cycle ----------------------------------------------------------------------
+    @property
+    def Fu(self):
+        """Last evaluated Fu, (n, 3, 3) view."""
+        return self._Fu.reshape(self.n, 3, 3)
+
+    def evaluate_Fu(self):
+        self.Fu_expr.eval(self.cells, self._Fu)
+        return self.Fu
+
+    def update(self, tangent=True):
+        """Trial material update from the committed state; fills tau (and a if tangent)."""
+        Fu = self.evaluate_Fu()
+        tangent = tangent and self.has_tangent
+        a = self.a_values if tangent else None
+        self.material.update_into(Fu, self.binv, self.eqps, self.tau_values,
+                                  self.binv_trial, self.eqps_trial, a)
+        if not np.isfinite(self.tau_values).all() or (tangent and not np.isfinite(a).all()):
+            raise MaterialUpdateError(
+                "material update returned non-finite stress/tangent "
+                f"(min det Fu = {np.linalg.det(Fu).min():.3e})")
+        self._write(self.tau, self.tau_values, 9)
+        if tangent:
+            self._write(self.a, a, 81)
+
+    def _write(self, fun, values, bs):
+        if not self.trivial:
+            idx = (self._qdofs[:, None] * bs + np.arange(bs)).reshape(-1)
+            fun.x.array[idx] = values.reshape(-1)
+        fun.x.scatter_forward()
+
+    def commit(self):
+        self.binv[:] = self.binv_trial
+        self.eqps[:] = self.eqps_trial
+
+    def restore(self):
+        """Nothing to do: trial states are always recomputed from the committed state."""
+
+    # -- output ----------------------------------------------------------------------------
+    def _weights(self):
+        if self._cell_weights is None:
+            w = self.kin.weight
+            expr = fem.Expression(ufl.as_ufl(w) * abs(ufl.JacobianDeterminant(self.mesh)), self.points)
+            wq = expr.eval(self.cells).reshape(self.n_owned, self.nq) * self.weights[None, :]
+            self._cell_weights = wq / wq.sum(axis=1, keepdims=True)
+            self.DG0 = fem.FunctionSpace(self.mesh, ("DG", 0))
+            self._dg0_dofs = self.DG0.dofmap.list.array.reshape(-1)[: self.n_owned]
+        return self._cell_weights
+
+    def cell_mean(self, values_per_qp, name="cell_mean", out=None):
+        """Weighted (w dV) cell mean of owned-qp values (n,) or (n_owned, nq) -> DG0 Function."""
+        cw = self._weights()
+        vals = np.asarray(values_per_qp).reshape(self.n_owned, self.nq)
+        if out is None:
+            out = fem.Function(self.DG0, name=name)
+        out.x.array[self._dg0_dofs] = (vals * cw).sum(axis=1)
+        out.x.scatter_forward()
+        return out
+
+
+def von_mises(tau, J=None):
+    """von Mises equivalent of (n,3,3) stress (Cauchy if J is given: tau / J)."""
+    s = tau if J is None else tau / J[:, None, None]
+    dev = s - np.trace(s, axis1=1, axis2=2)[:, None, None] / 3.0 * np.eye(3)
+    return np.sqrt(1.5 * np.einsum("nij,nij->n", dev, dev))
+
+
+def pressure(tau, J=None):
+    """Pressure -tr(sigma)/3 (Kirchhoff if J is None)."""
+    s = tau if J is None else tau / J[:, None, None]
+    return -np.trace(s, axis1=1, axis2=2) / 3.0

@@ -1,0 +1,1 @@
+"""Solvers: static (SNES Newton, increments, cut-back) and explicit (central differences)."""

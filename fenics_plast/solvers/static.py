@@ -1,0 +1,355 @@
+"""Quasi-static finite-strain solver: PETSc SNES Newton, load increments with cut-back.
+
+Unknowns: Q1 displacement u and (element "q1p0") a DG0 dilatation theta (F-bar, Q1/P0 of
+docs/DESIGN.md); element "q1" is plain Q1 (theta := J). The residual callback evaluates the
+incremental deformation gradient Fu = Fbar(u, theta) Fbar(u_n, theta_n)^-1 at the quadrature
+points, runs the material update from the committed state, and assembles; the Jacobian is
+assembled from the consistent tangent computed in the same update.
+
+Loading is a scalar load factor ``lam`` in [0, 1]: Dirichlet values are ``lam * value`` and
+extra residual terms (pressures) may use ``solver.load`` (a fem.Constant equal to lam).
+"""
+from __future__ import annotations
+
+import itertools
+import time
+
+import numpy as np
+import ufl
+from dolfinx import fem
+import dolfinx.fem.petsc as fpetsc
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
+
+try:
+    from fenics_plast.errors import RunError
+except ImportError:  # pragma: no cover
+    class RunError(RuntimeError):
+        def __init__(self, message, results=None):
+            super().__init__(message)
+            self.results = dict(results or {})
+
+_prefix_counter = itertools.count()
+
+
+class StaticSolver:
+    """Newton (SNES newtonls + line search, MUMPS LU) with incremental loading."""
+
+    def __init__(self, kin, material, element="q1p0", rtol=1e-9, atol=1e-8, max_iterations=25,
+                 linesearch="bt", stol=0.0, verbose=True, log=None):
+        if element not in ("q1p0", "q1"):
+            raise ValueError(f"element must be 'q1p0' or 'q1', got {element!r}")
+        self.kin = kin
+        self.mesh = mesh = kin.mesh
+        self.comm = mesh.comm
+        self.material = material
+        self.element = element
+        self.mixed = element == "q1p0"
+        self.verbose = verbose
+        self._log = log
+        cell = mesh.ufl_cell()
+        Ue = ufl.VectorElement("Lagrange", cell, 1)
+        if self.mixed:
+            self.W = fem.FunctionSpace(mesh, ufl.MixedElement([Ue, ufl.FiniteElement("DG", cell, 0)]))
+            self.V = self.W.sub(0)
+        else:
+            self.W = fem.FunctionSpace(mesh, Ue)
+            self.V = self.W
+        self.w = fem.Function(self.W, name="state")
+        self.w_n = fem.Function(self.W, name="state_n")       # last converged
+        self.w_nm1 = fem.Function(self.W, name="state_nm1")   # the one before (predictor)
+        if self.mixed:
+            _, self.theta_dofs = self.W.sub(1).collapse()
+            self.theta_dofs = np.asarray(self.theta_dofs)
+            for f in (self.w, self.w_n, self.w_nm1):
+                f.x.array[self.theta_dofs] = 1.0
+            self.u, self.theta = ufl.split(self.w)
+            u_n, theta_n = ufl.split(self.w_n)
+            self.v, self.q = ufl.TestFunctions(self.W)
+            self.du, self.dtheta = ufl.TrialFunctions(self.W)
+        else:
+            self.u, self.theta = self.w, None
+            u_n, theta_n = self.w_n, None
+            self.v, self.q = ufl.TestFunction(self.W), None
+            self.du, self.dtheta = ufl.TrialFunction(self.W), None
+        self.u_n = u_n
+        self.Fu_expr = kin.Fu(self.u, self.theta, u_n, theta_n)
+        self.qmap = QuadratureMap(mesh, kin, material, self.Fu_expr, degree=kin.degree, tangent=True)
+        tau, a = self.qmap.tau, self.qmap.a
+        self.R_int = kin.internal_virtual_work(self.u, self.theta, tau, self.v)
+        self.J_int = kin.internal_virtual_work_derivative(self.u, self.theta, tau, a, self.v,
+                                                          self.du, self.dtheta)
+        if self.mixed:
+            self.R_int = self.R_int + kin.dilatation_residual(self.u, self.theta, self.q)
+            self.J_int = self.J_int + kin.dilatation_residual_derivative(self.u, self.q, self.du,
+                                                                         self.dtheta)
+        self.load = fem.Constant(mesh, PETSc.ScalarType(0.0))
+        self.lam = 0.0
+        self._extra_R = []
+        self._extra_J = []
+        self._bcs = []          # (DirichletBC, g Function, g0 array)
+        self.options = dict(rtol=rtol, atol=atol, max_iterations=max_iterations,
+                            linesearch=linesearch, stol=stol)
+        self._setup_done = False
+        # records
+        self.increments = []    # dicts per converged increment
+        self.norms = []         # residual norms of the current solve
+        self.total_iterations = 0
+
+    # -- problem definition -------------------------------------------------------------------
+    def log(self, msg):
+        if self.verbose and self.comm.rank == 0:
+            if self._log is not None:
+                self._log(msg)
+            else:
+                print(msg, flush=True)
+
+    def _facets(self, facet_tags, tag):
+        return facet_tags.find(tag) if np.isscalar(tag) else np.asarray(tag, dtype=np.int32)
+
+    def add_dirichlet(self, component, facet_tags, tag, value=0.0):
+        """u[component] = lam * value on facets (value: float or callable x -> array)."""
+        fdim = self.mesh.topology.dim - 1
+        facets = self._facets(facet_tags, tag)
+        Vsub = self.V.sub(component)
+        Vc, _ = Vsub.collapse()
+        dofs = fem.locate_dofs_topological((Vsub, Vc), fdim, facets)
+        g = fem.Function(Vc)
+        if callable(value):
+            g.interpolate(lambda x: np.asarray(value(x), dtype=float) * np.ones(x.shape[1]))
+        else:
+            g.x.array[:] = float(value)
+        g0 = g.x.array.copy()
+        g.x.array[:] = self.lam * g0
+        bc = fem.dirichletbc(g, dofs, Vsub)
+        self._bcs.append((bc, g, g0))
+        return bc
+
+    def add_residual(self, R, J=None):
+        """Extra residual term (e.g. a pressure, using self.load, self.u, self.v)."""
+        self._extra_R.append(R)
+        if J is None:
+            J = ufl.derivative(R, self.w, ufl.TrialFunction(self.W))
+        self._extra_J.append(J)
+
+    def constrained_dofs(self, component, facet_tags, tag):
+        """Owned W-dof indices of u[component] on the facets (for reactions)."""
+        fdim = self.mesh.topology.dim - 1
+        facets = self._facets(facet_tags, tag)
+        Vsub = self.V.sub(component)
+        Vc, _ = Vsub.collapse()
+        dofs = fem.locate_dofs_topological((Vsub, Vc), fdim, facets)[0]
+        imap = self.W.dofmap.index_map
+        n_owned = imap.size_local * self.W.dofmap.index_map_bs
+        return np.asarray(dofs[dofs < n_owned], dtype=np.int32)
+
+    @property
+    def bcs(self):
+        return [b[0] for b in self._bcs]
+
+    # -- PETSc objects ------------------------------------------------------------------------
+    def setup(self):
+        R = self.R_int
+        J = self.J_int
+        for r in self._extra_R:
+            R = R + r
+        for j in self._extra_J:
+            J = J + j
+        self.R_form = fem.form(R)
+        self.J_form = fem.form(J)
+        self.Rint_form = fem.form(self.R_int)
+        self.b = fpetsc.create_vector(self.R_form)
+        self.r_int = fpetsc.create_vector(self.Rint_form)
+        self.A = fpetsc.create_matrix(self.J_form)
+        self.x = self.w.vector.duplicate()   # SNES solution, distinct from w.vector
+        self.prefix = f"fp_static_{next(_prefix_counter)}_"
+        opts = PETSc.Options()
+        o = self.options
+        for k, v in {
+            "snes_type": "newtonls", "snes_linesearch_type": o["linesearch"],
+            "snes_rtol": o["rtol"], "snes_atol": o["atol"], "snes_stol": o["stol"],
+            "snes_max_it": o["max_iterations"], "snes_max_funcs": 10 * o["max_iterations"] + 10,
+            "snes_error_if_not_converged": False,
+            "ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps",
+            "mat_mumps_icntl_14": 100, "ksp_error_if_not_converged": False,
+        }.items():
+            opts[self.prefix + k] = v
+        self.snes = snes = PETSc.SNES().create(self.comm)
+        snes.setOptionsPrefix(self.prefix)
+        snes.setFunction(self._residual, self.b)
+        snes.setJacobian(self._jacobian, self.A)
+        snes.setMonitor(self._monitor)
+        snes.setFromOptions()
+        snes.getKSP().setFromOptions()
+        self._setup_done = True
+
+    def _monitor(self, snes, its, norm):
+        self.norms.append(float(norm))
+
+    def _set_state(self, x):
+        x.copy(self.w.vector)
+        self.w.x.scatter_forward()
+
+    def _residual(self, snes, x, b):
+        self._set_state(x)
+        try:
+            self.qmap.update(tangent=True)
+            self._bad_update = False
+        except MaterialUpdateError as e:
+            self._bad_update = True
+            self._bad_message = str(e)
+            with b.localForm() as bl:
+                bl.set(np.nan)
+            return
+        with b.localForm() as bl:
+            bl.set(0.0)
+        fpetsc.assemble_vector(b, self.R_form)
+        fpetsc.apply_lifting(b, [self.J_form], bcs=[self.bcs], x0=[x], scale=-1.0)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        fpetsc.set_bc(b, self.bcs, x, -1.0)
+
+    def _jacobian(self, snes, x, A, P):
+        A.zeroEntries()
+        fpetsc.assemble_matrix(A, self.J_form, bcs=self.bcs)
+        A.assemble()
+
+    # -- loading ------------------------------------------------------------------------------
+    def set_load(self, lam):
+        self.lam = float(lam)
+        self.load.value = self.lam
+        for bc, g, g0 in self._bcs:
+            g.x.array[:] = self.lam * g0
+
+    def solve_increment(self, lam, lam_prev_step=None):
+        """Newton solve at load factor lam from the last converged state. Returns (ok, its, reason)."""
+        if not self._setup_done:
+            self.setup()
+        lam_n = self.lam_converged
+        self.set_load(lam)
+        # predictor: linear extrapolation of the last converged increment, then BC values
+        self.w.x.array[:] = self.w_n.x.array
+        if lam_prev_step and lam_prev_step > 0:
+            s = (lam - lam_n) / lam_prev_step
+            self.w.x.array[:] += s * (self.w_n.x.array - self.w_nm1.x.array)
+        self.w.vector.copy(self.x)
+        fpetsc.set_bc(self.x, self.bcs)
+        self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        self.norms = []
+        self._bad_update = False
+        try:
+            self.snes.solve(None, self.x)
+        except PETSc.Error as e:   # pragma: no cover - callbacks catch the expected failures
+            self.log(f"  SNES error: {e}")
+            return False, self.snes.getIterationNumber(), "petsc-error"
+        reason = self.snes.getConvergedReason()
+        its = self.snes.getIterationNumber()
+        ksp_reason = self.snes.getKSP().getConvergedReason()
+        self.total_iterations += its
+        ok = reason > 0 and not self._bad_update and all(np.isfinite(self.norms))
+        why = _REASONS.get(reason, str(reason))
+        if self._bad_update:
+            why = "material update failed: " + self._bad_message
+        elif ksp_reason < 0:
+            why += f" (linear solve failed, KSP reason {ksp_reason}{self._mumps_info()})"
+        if ok:
+            self._set_state(self.x)
+            self.qmap.update(tangent=False)
+        return ok, its, why
+
+    def _mumps_info(self):
+        try:
+            F = self.snes.getKSP().getPC().getFactorMatrix()
+            return f", MUMPS INFOG(1) = {F.getMumpsInfog(1)}"
+        except Exception:  # noqa: BLE001
+            return ""
+
+    def commit(self):
+        self.qmap.commit()
+        self.w_nm1.x.array[:] = self.w_n.x.array
+        self.w_n.x.array[:] = self.w.x.array
+        self.lam_converged = self.lam
+
+    def restore(self):
+        self.w.x.array[:] = self.w_n.x.array
+        self.set_load(self.lam_converged)
+        self.qmap.restore()
+
+    lam_converged = 0.0
+
+    def run(self, increments=20, min_increment=1e-4, max_increment=0.1, lam_end=1.0,
+            callback=None, growth=1.5, fast_iterations=4):
+        """Drive lam from its current value to lam_end.
+
+        callback(solver) is called after every converged increment; returning True stops the run.
+        Raises RunError below min_increment (all converged increments are kept/written).
+        Returns True when lam_end was reached, False when the callback stopped the run.
+        """
+        if not self._setup_done:
+            self.setup()
+        span = lam_end - self.lam_converged
+        dl = min(span / increments, max_increment)
+        prev_step = None
+        while self.lam_converged < lam_end - 1e-12 * max(1.0, abs(lam_end)):
+            dl = min(dl, max_increment, lam_end - self.lam_converged)
+            lam = self.lam_converged + dl
+            t0 = time.perf_counter()
+            ok, its, why = self.solve_increment(lam, prev_step)
+            dt = time.perf_counter() - t0
+            norms = list(self.norms)
+            if ok:
+                self.commit()
+                rec = dict(increment=len(self.increments) + 1, load_factor=lam, step=dl,
+                           iterations=its, norms=norms, time_s=dt)
+                self.increments.append(rec)
+                self.log(f"increment {rec['increment']:4d}  load {lam:.6g} (step {dl:.3g})  "
+                         f"newton {its:2d}  |R| {norms[0]:.3e} -> {norms[-1]:.3e}  ({dt:.2f} s)")
+                prev_step = dl
+                if callback is not None and callback(self):
+                    return False
+                if its <= fast_iterations:
+                    dl *= growth
+            else:
+                self.log(f"  cut back at load {lam:.6g} (step {dl:.3g}): {why}, "
+                         f"{its} iterations, |R| = {', '.join(f'{n:.2e}' for n in norms[-4:])}")
+                self.restore()
+                dl *= 0.5
+                prev_step = None
+                if dl < min_increment * (1 - 1e-9):
+                    raise RunError(
+                        f"static solver: no convergence at load factor {lam:.6g} even with the "
+                        f"smallest step {2 * dl:.3g} (min_increment {min_increment:g}): {why}. "
+                        f"{len(self.increments)} increments converged up to load factor "
+                        f"{self.lam_converged:.6g}.",
+                        results={"converged": False, "increments": len(self.increments),
+                                 "load_factor": self.lam_converged})
+        return True
+
+    # -- post-processing ----------------------------------------------------------------------
+    def internal_force(self):
+        """Assembled internal force R_u (no BCs), ghost-accumulated; returns the owned array."""
+        with self.r_int.localForm() as rl:
+            rl.set(0.0)
+        fpetsc.assemble_vector(self.r_int, self.Rint_form)
+        self.r_int.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return self.r_int.array_r
+
+    def reaction(self, dofs):
+        """Total reaction (sum of R_u over the given owned dofs, all ranks)."""
+        local = float(np.sum(self.internal_force()[dofs]))
+        return self.comm.allreduce(local, op=MPI.SUM)
+
+    def displacement(self):
+        """Collapsed displacement Function (copy)."""
+        if self.mixed:
+            return self.w.sub(0).collapse()
+        return self.w
+
+    @property
+    def dofs(self):
+        imap = self.W.dofmap.index_map
+        return imap.size_global * self.W.dofmap.index_map_bs
+
+
+_REASONS = {v: k for k, v in PETSc.SNES.ConvergedReason.__dict__.items() if not k.startswith("_")}
