@@ -270,21 +270,32 @@ def _section_allowed(section: str, kind: str) -> bool:
 
 
 class Section:
-    """Read-only attribute access to one validated section (``scene.material.E``)."""
+    """Read-only attribute access to one validated section (``scene.material.E``).
+
+    The keys are plain instance attributes, so ``vars(section)`` works too (it also holds
+    ``_dotted``, the section's dotted name; skip names starting with ``_``). ``to_dict()`` gives the
+    keys only. Keys that do not apply to the scene kind are absent (AttributeError)."""
 
     def __init__(self, dotted: str, values: dict[str, Any]):
         object.__setattr__(self, "_dotted", dotted)
-        object.__setattr__(self, "_values", values)
+        for k, v in values.items():
+            object.__setattr__(self, k, v)
+
+    @property
+    def _values(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if not k.startswith("_")}
 
     def __getattr__(self, name: str):
-        try:
-            return self._values[name]
-        except KeyError:
-            raise AttributeError(f"scene section [{self._dotted}] has no key {name!r} "
-                                 f"(has: {', '.join(self._values)})") from None
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise AttributeError(f"scene section [{self.__dict__.get('_dotted')}] has no key {name!r} "
+                             f"(has: {', '.join(self._values)})")
 
     def __setattr__(self, name, value):
         raise AttributeError("scene sections are read-only; use --set to override keys")
+
+    def _set(self, name: str, value) -> None:
+        object.__setattr__(self, name, value)
 
     def __getitem__(self, name: str):
         return self._values[name]
@@ -494,7 +505,7 @@ def _validate(raw: dict, where: str, path: Path, overrides: tuple[str, ...]) -> 
 
     # nest hardening into material
     mat = sections["material"]
-    mat._values["hardening"] = sections.pop("material.hardening")
+    mat._set("hardening", sections.pop("material.hardening"))
     scene = Scene(path=path, kind=kind, name=sections["scene"].name, sections=sections, overrides=overrides)
     return scene
 

@@ -1,0 +1,40 @@
+# fenics-plast: make demo | test | test-slow | bench | keys
+SHELL := /bin/bash
+PY    := .venv/bin/python
+FP    := .venv/bin/fenics-plast
+
+# Open MPI refuses to run as root without these (containers, CI).
+export OMPI_ALLOW_RUN_AS_ROOT := 1
+export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
+
+.PHONY: install demo test test-slow bench keys clean
+
+install:
+	bash scripts/install.sh
+
+# Every demos/*.toml into results/<scene name>/ (the CLI's default); keeps going, fails at the end.
+demo: install
+	@failed=""; shopt -s nullglob; scenes=(demos/*.toml); \
+	if [ $${#scenes[@]} -eq 0 ]; then echo "make demo: no demos/*.toml yet"; fi; \
+	for s in "$${scenes[@]}"; do \
+	    echo "== $$s"; \
+	    $(FP) run "$$s" || failed="$$failed $$s"; \
+	done; \
+	echo "make demo: results are in $(CURDIR)/results/<scene name>/ (summary.json, history.csv, fields.xdmf, *.png)"; \
+	if [ -n "$$failed" ]; then echo "make demo: FAILED:$$failed"; exit 1; fi
+
+test: install
+	$(PY) -m pytest -q tests
+
+test-slow: install
+	$(PY) -m pytest -q -m '' tests
+
+bench: install
+	@shopt -s nullglob; for b in benchmarks/*.py; do echo "== $$b"; $(PY) "$$b" || exit 1; done
+
+# Regenerate docs/SCENE_KEYS.md from the schema in fenics_plast/scene.py.
+keys: install
+	$(PY) -m fenics_plast.scene
+
+clean:
+	rm -rf results
