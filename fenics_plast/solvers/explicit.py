@@ -1,0 +1,362 @@
+"""Explicit central-difference dynamics with a lumped mass (Taylor bar impact and friends).
+
+Scheme (central differences written in velocity-Verlet form, which allows a variable step):
+
+    a_n       = -M^-1 f_int(u_n)                 (a = 0 on velocity-constrained dofs)
+    v_{n+1/2} = v_n + dt/2 a_n
+    u_{n+1}   = u_n + dt v_{n+1/2}
+    theta_{n+1} = int_cell J w dV / int_cell w dV   (Q1/P0 dilatation, DG0; q1: none)
+    material update from the committed state with Fu = Fbar(u_{n+1}) Fbar(u_n)^-1, commit
+    a_{n+1}   = -M^-1 f_int(u_{n+1});  v_{n+1} = v_{n+1/2} + dt/2 a_{n+1}
+
+* The mass is the row-sum lumped mass  M_i = int rho N_i w dV  (w = 2 pi r in axisymmetry).
+* The internal force is ``Kinematics.internal_virtual_work`` (the one R_u of DESIGN.md, shared with
+  the static solver), with tau from ``QuadratureMap`` (the one material path).
+* Velocity boundary conditions are homogeneous (sliding supports, fixed walls): those dofs keep
+  zero velocity and zero acceleration; their internal force is the support reaction.
+* Stable step: dt_stable = h_min / c with h the smallest edge or altitude of any deformed quad and
+  c = sqrt((lambda + 2 mu) / rho) the dilatational wave speed; re-estimated every
+  ``reestimate_every`` steps; the step used is dt_safety * dt_stable.
+* Energies: kinetic 1/2 v.M.v (integer-step velocity), internal work by the trapezoidal rule
+  W += du.(f_n + f_{n+1})/2, external work of the support reactions likewise (zero for fixed
+  walls), stored elastic energy int psi(binv) w dV, plastic dissipation = W_int - elastic.
+  Balance error |KE + W_int - KE0 - W_ext| / KE0.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from fenics_plast.errors import RunError
+from fenics_plast.quadrature import QuadratureMap
+
+# basix vertex order of a quadrilateral is tensor-product (0,0) (1,0) (0,1) (1,1); cyclic order:
+_QUAD_CYCLE = np.array([0, 1, 3, 2])
+
+
+def wave_speed(material, density):
+    """Dilatational wave speed sqrt((lambda + 2 mu) / rho) [mm/s]."""
+    lam, mu = material.lame
+    return math.sqrt((lam + 2.0 * mu) / density)
+
+
+def quad_min_size(P):
+    """Smallest edge length or altitude of each quad; P (n, 4, 2) vertices in cyclic order."""
+    h = np.full(P.shape[0], np.inf)
+    for k in range(4):
+        a = P[:, k]
+        b = P[:, (k + 1) % 4]
+        e = b - a
+        le = np.sqrt(e[:, 0] ** 2 + e[:, 1] ** 2)
+        h = np.minimum(h, le)
+        for m in (2, 3):                       # distance of the opposite vertices from edge k's line
+            d = P[:, (k + m) % 4] - a
+            alt = np.abs(e[:, 0] * d[:, 1] - e[:, 1] * d[:, 0]) / np.maximum(le, 1e-300)
+            h = np.minimum(h, alt)
+    return h
+
+
+class ExplicitDynamics:
+    """Central differences on a Q1 (element "q1") or Q1/P0 F-bar ("q1p0") displacement field.
+
+    Parameters
+    ----------
+    mesh, kin : dolfinx mesh and ``fenics_plast.kinematics.Kinematics``.
+    material : ``fenics_plast.material.Material`` (``update_into``, ``energy``, ``lame``).
+    density : tonne/mm^3.
+    velocity_bcs : list of (component, facet indices): that velocity component is held at 0.
+    element : "q1p0" (DG0 mean dilatation, F-bar) or "q1" (theta = None).
+    """
+
+    def __init__(self, mesh, kin, material, density, velocity_bcs=(), element="q1p0",
+                 reestimate_every=10, log=None):
+        if element not in ("q1p0", "q1"):
+            raise ValueError(f"element must be 'q1p0' or 'q1', got {element!r}")
+        self.mesh, self.kin, self.material, self.density = mesh, kin, material, float(density)
+        self.comm = mesh.comm
+        self.element = element
+        self.reestimate_every = int(reestimate_every)
+        self.log = log if log is not None else (self._print if self.comm.rank == 0 else (lambda msg: None))
+        self.timings = {}
+        t0 = time.perf_counter()
+
+        V = fem.VectorFunctionSpace(mesh, ("Lagrange", 1))
+        self.V = V
+        self.u = fem.Function(V, name="displacement")
+        self.u_n = fem.Function(V, name="displacement_previous")
+        self.v = fem.Function(V, name="velocity")
+        imap = V.dofmap.index_map
+        self.bs = V.dofmap.index_map_bs
+        self.n_own = imap.size_local * self.bs            # owned scalar dofs (unrolled)
+        self.dofs_global = imap.size_global * self.bs
+        tdim = mesh.topology.dim
+        self.n_cells_own = mesh.topology.index_map(tdim).size_local
+        self.cells_global = mesh.topology.index_map(tdim).size_global
+
+        # dilatation field
+        if element == "q1p0":
+            D0 = fem.FunctionSpace(mesh, ("DG", 0))
+            self.D0 = D0
+            self.theta = fem.Function(D0, name="theta")
+            self.theta_n = fem.Function(D0, name="theta_previous")
+            self.theta.x.array[:] = 1.0
+            self.theta_n.x.array[:] = 1.0
+            q = ufl.TestFunction(D0)
+            self._L_theta = fem.form(kin.J(self.u) * kin.weight * q * kin.dx)
+            vol = fem_petsc.assemble_vector(fem.form(kin.weight * q * kin.dx))
+            self._n_theta = D0.dofmap.index_map.size_local
+            self._cellvol_inv = 1.0 / vol.array.copy()
+            vol.destroy()
+            self._b_theta = fem_petsc.create_vector(self._L_theta)
+            self._b_theta_arr = self._b_theta.getArray()           # owned view
+            theta, theta_n = self.theta, self.theta_n
+        else:
+            self.theta = self.theta_n = None
+            theta = theta_n = None
+
+        # one material path: Fu = Fbar(u, theta) Fbar(u_n, theta_n)^-1 at the qps, compiled once
+        Fu_expr = kin.Fu(self.u, theta, self.u_n, theta_n)
+        self.qmap = QuadratureMap(mesh, kin, material, Fu_expr, degree=kin.degree, tangent=False)
+
+        # internal force: the shared R_u, compiled once, reused Vec
+        vt = ufl.TestFunction(V)
+        self._L_int = fem.form(kin.internal_virtual_work(self.u, theta, self.qmap.tau, vt))
+        self._f = fem_petsc.create_vector(self._L_int)
+        self.f = self._f.getArray()                                 # owned view, refreshed in place
+        self.f_old = np.zeros(self.n_own)
+
+        # lumped mass (row sums), weighted by kin.weight
+        ones = fem.Constant(mesh, PETSc.ScalarType((1.0,) * self.bs))
+        M = fem_petsc.assemble_vector(fem.form(self.density * ufl.inner(ones, vt) * kin.weight * kin.dx))
+        M.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self.mass = M.array.copy()
+        M.destroy()
+        self.minv = 1.0 / self.mass
+
+        # velocity constraints (owned unrolled dofs)
+        fdim = tdim - 1
+        mesh.topology.create_connectivity(fdim, tdim)
+        fixed = []
+        for comp, facets in velocity_bcs:
+            d = fem.locate_dofs_topological(V.sub(comp), fdim, np.asarray(facets, dtype=np.int32))
+            fixed.append(np.asarray(d))
+        fixed = np.unique(np.concatenate(fixed)) if fixed else np.zeros(0, dtype=np.int32)
+        self.fixed = fixed[fixed < self.n_own].astype(np.int64)
+        self.free_minv = self.minv.copy()
+        self.free_minv[self.fixed] = 0.0                            # a = -f * free_minv: zero on fixed dofs
+
+        # geometry for the stable step: reference positions of the dofs, cell -> dofs (cyclic)
+        X = V.tabulate_dof_coordinates()[:, :2]
+        self._X = np.ascontiguousarray(X)
+        cd = V.dofmap.list.array.reshape(-1, 4)[: self.n_cells_own]
+        self._cell_dofs = cd[:, _QUAD_CYCLE]
+        self.c = wave_speed(material, self.density)
+
+        # quadrature weights w |detJ| q_w (reference configuration) for energy integrals
+        we = fem.Expression(ufl.as_ufl(kin.weight) * abs(ufl.JacobianDeterminant(mesh)), self.qmap.points)
+        self._wq = (we.eval(self.qmap.cells).reshape(self.n_cells_own, self.qmap.nq)
+                    * self.qmap.weights[None, :]).reshape(-1)
+
+        # buffers
+        self.a = np.zeros(self.n_own)
+        self.du = np.zeros(self.n_own)
+        self.t = 0.0
+        self.step_count = 0
+        self.W_int = 0.0          # local (owned) accumulators, reduced when reported
+        self.W_ext = 0.0
+        self.KE0 = None
+        self._row_times = []
+        self.timings["setup_s"] = time.perf_counter() - t0
+
+    @staticmethod
+    def _print(msg):
+        print(msg, flush=True)
+
+    # ------------------------------------------------------------------------------------------
+    def set_velocity(self, value):
+        """Uniform initial velocity (vr, vz); constrained components are set to zero."""
+        self.v.x.array.reshape(-1, self.bs)[:] = np.asarray(value, dtype=float)
+        self.v.x.array[self.fixed] = 0.0
+        self.v.x.scatter_forward()
+
+    def stable_dt(self):
+        """h_min / c on the current (deformed) mesh, global minimum."""
+        x = self._X + self.u.x.array.reshape(-1, self.bs)
+        h = quad_min_size(x[self._cell_dofs])
+        hloc = h.min() if h.size else np.inf
+        return self.comm.allreduce(hloc, op=MPI.MIN) / self.c
+
+    # ------------------------------------------------------------------------------------------
+    def _update_theta(self):
+        b = self._b_theta
+        with b.localForm() as bl:
+            bl.set(0.0)
+        fem_petsc.assemble_vector(b, self._L_theta)
+        # cell-local: no reverse scatter needed (owned cells own their DG0 dof)
+        self.theta.x.array[: self._n_theta] = self._b_theta_arr * self._cellvol_inv
+        self.theta.x.scatter_forward()
+
+    def _internal_force(self):
+        """Material update + commit at the current u, then f_int into self.f (owned)."""
+        if self.theta is not None:
+            self._update_theta()
+        self.qmap.update(tangent=False)
+        self.qmap.commit()
+        b = self._f
+        with b.localForm() as bl:
+            bl.set(0.0)
+        fem_petsc.assemble_vector(b, self._L_int)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+
+    def initialize(self):
+        """Internal force and energies at t = 0 (call after set_velocity)."""
+        self._internal_force()
+        np.multiply(self.f, self.free_minv, out=self.a)
+        np.negative(self.a, out=self.a)
+        self.KE0 = self.kinetic_energy()
+
+    def step(self, dt):
+        n = self.n_own
+        v = self.v.x.array[:n]
+        u_all = self.u.x.array
+        # half-step velocity, displacement increment
+        v += 0.5 * dt * self.a
+        np.multiply(v, dt, out=self.du)
+        self.u_n.x.array[:] = u_all
+        if self.theta is not None:
+            self.theta_n.x.array[:] = self.theta.x.array
+        u_all[:n] += self.du
+        self.u.x.scatter_forward()
+        self.f_old[:] = self.f
+        self._internal_force()
+        f = self.f
+        # trapezoidal work of internal forces (free dofs) and support reactions (fixed dofs)
+        self.W_int += 0.5 * float(np.dot(self.du, self.f_old + f))
+        if self.fixed.size:
+            fx = self.fixed
+            self.W_ext += 0.5 * float(np.dot(self.du[fx], self.f_old[fx] + f[fx]))
+            self.W_int -= 0.5 * float(np.dot(self.du[fx], self.f_old[fx] + f[fx]))
+        np.multiply(f, self.free_minv, out=self.a)
+        np.negative(self.a, out=self.a)
+        v += 0.5 * dt * self.a
+        self.t += dt
+        self.step_count += 1
+
+    # ------------------------------------------------------------------------------------------
+    def kinetic_energy(self):
+        v = self.v.x.array[: self.n_own]
+        return self.comm.allreduce(0.5 * float(np.dot(self.mass * v, v)), op=MPI.SUM)
+
+    def elastic_energy(self):
+        psi = self.material.energy(self.qmap.binv)
+        return self.comm.allreduce(float(np.dot(psi, self._wq)), op=MPI.SUM)
+
+    def energies(self):
+        """Global energies [N mm] and the relative balance error."""
+        ke = self.kinetic_energy()
+        el = self.elastic_energy()
+        w_int = self.comm.allreduce(self.W_int, op=MPI.SUM)
+        w_ext = self.comm.allreduce(self.W_ext, op=MPI.SUM)
+        err = abs(ke + w_int - self.KE0 - w_ext) / self.KE0 if self.KE0 else 0.0
+        return dict(kinetic=ke, elastic=el, internal_work=w_int, plastic=w_int - el,
+                    external_work=w_ext, balance_error=err)
+
+    def max_eqps(self):
+        loc = float(self.qmap.eqps.max()) if self.qmap.eqps.size else 0.0
+        return self.comm.allreduce(loc, op=MPI.MAX)
+
+    def nodal_positions(self):
+        """Current positions of the owned+ghost dofs' nodes (n, 2)."""
+        return self._X + self.u.x.array.reshape(-1, self.bs)
+
+    # ------------------------------------------------------------------------------------------
+    def run(self, end_time, dt_safety=0.8, steps=None, rows=2, on_row=None, progress=10):
+        """Integrate to ``end_time`` [s].
+
+        steps=None: dt = dt_safety * dt_stable, re-estimated every ``reestimate_every`` steps and
+        shortened to land on the history-row times; steps=N: fixed dt = end_time / N, refused with a
+        RunError when above the stable limit. ``on_row(solver, t)`` is called at ``rows`` equally
+        spaced times (t = 0 and t = end_time included). Returns a dict of run statistics.
+        """
+        if not 0.0 < dt_safety <= 1.0:
+            raise RunError(f"solver.dt_safety must lie in (0, 1], got {dt_safety}")
+        dt_stable0 = self.stable_dt()
+        if steps is not None:
+            dt_fixed = end_time / int(steps)
+            if dt_fixed > dt_stable0:
+                raise RunError(
+                    f"time step end_time/steps = {dt_fixed:.4g} s ({int(steps)} steps) exceeds the stable "
+                    f"limit {dt_stable0:.4g} s (smallest element {dt_stable0 * self.c:.4g} mm, wave speed "
+                    f"{self.c / 1e3:.4g} m/s); use at least {math.ceil(end_time / dt_stable0)} steps "
+                    f"or drop solver.steps")
+        if self.KE0 is None:
+            self.initialize()
+        if not self.KE0 > 0.0:
+            raise RunError("explicit run with zero initial kinetic energy: nothing moves")
+        row_times = np.linspace(0.0, end_time, max(int(rows), 2))
+        next_row = 1
+        if on_row is not None:
+            on_row(self, 0.0)
+        dt_stable = dt_stable0
+        dt_min, dt_max = np.inf, 0.0
+        prog_times = np.linspace(0.0, end_time, progress + 1)[1:] if progress else []
+        next_prog = 0
+        t_wall0 = time.perf_counter()
+        eps_t = 1e-12 * end_time
+        ke_check = self.KE0
+        while self.t < end_time - eps_t:
+            if steps is not None:
+                dt = min(dt_fixed, end_time - self.t)
+            else:
+                if self.step_count % self.reestimate_every == 0:
+                    dt_stable = self.stable_dt()
+                dt = dt_safety * dt_stable
+                tr = row_times[next_row]
+                if self.t + dt > tr - eps_t:
+                    dt = tr - self.t
+                elif self.t + 1.5 * dt > tr:          # avoid a sliver step before the row time
+                    dt = 0.5 * (tr - self.t)
+            try:
+                self.step(dt)
+            except Exception as e:                    # non-finite material update, singular Fu, ...
+                if "non-finite" in str(e) or isinstance(e, (np.linalg.LinAlgError, FloatingPointError,
+                                                            ZeroDivisionError)):
+                    raise RunError(self._unstable_message(dt, f"material update failed: {e}")) from None
+                raise
+            dt_min, dt_max = min(dt_min, dt), max(dt_max, dt)
+            if self.step_count % self.reestimate_every == 0:
+                ke = self.kinetic_energy()
+                if not math.isfinite(ke) or ke > 1.5 * self.KE0 + 1e-30:
+                    raise RunError(self._unstable_message(dt, f"kinetic energy {ke:.4g} vs initial {self.KE0:.4g}"))
+                if steps is not None:
+                    dt_stable = self.stable_dt()
+            while next_row < len(row_times) and self.t >= row_times[next_row] - eps_t:
+                if on_row is not None:
+                    on_row(self, self.t)
+                next_row += 1
+            while next_prog < len(prog_times) and self.t >= prog_times[next_prog] - eps_t:
+                e = self.energies()
+                if not math.isfinite(e["kinetic"]) or e["kinetic"] > 1.5 * self.KE0:
+                    raise RunError(self._unstable_message(dt, f"kinetic energy {e['kinetic']:.4g}"))
+                self.log(f"  t = {self.t * 1e6:8.3f} us  step {self.step_count:6d}  dt = {dt:.3e} s  "
+                         f"KE = {e['kinetic'] / 1e3:9.3f} J  W_int = {e['internal_work'] / 1e3:9.3f} J  "
+                         f"max eqps = {self.max_eqps():.3f}  energy error = {e['balance_error']:.2e}",
+)
+                next_prog += 1
+        wall = time.perf_counter() - t_wall0
+        return dict(steps=self.step_count, dt_min=dt_min, dt_max=dt_max, dt_stable_initial=dt_stable0,
+                    dt_stable_final=self.stable_dt(), wall_s=wall,
+                    time_per_step_s=wall / max(self.step_count, 1))
+
+    def _unstable_message(self, dt, why):
+        dts = self.stable_dt()
+        return (f"explicit run went unstable at t = {self.t * 1e6:.4g} us (step {self.step_count}): {why}; "
+                f"time step {dt:.4g} s, current stable limit {dts:.4g} s. Lower solver.dt_safety or raise "
+                f"solver.steps")
