@@ -164,6 +164,16 @@ def _columns(result: dict) -> dict[str, np.ndarray]:
     return cols
 
 
+def _csv_cell(v):
+    if isinstance(v, (bool, np.bool_)):
+        return int(v)
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    if isinstance(v, (float, np.floating)):
+        return repr(float(v))
+    return v
+
+
 def cmd_point(args) -> int:
     try:
         scene = load_scene(args.scene, args.set or ())
@@ -206,17 +216,24 @@ def cmd_point(args) -> int:
         _error(str(e))
         return EXIT_RUN_FAILED
     result = dict(result)
-    if t is not None and "t" not in result:
-        result = {"t": t, **result}
     cols = _columns(result)
+    lengths = {len(c) for c in cols.values()}
+    if len(lengths) > 1:
+        _error(f"material point driver returned columns of different lengths: "
+               f"{ {k: len(c) for k, c in cols.items()} }")
+        return EXIT_RUN_FAILED
+    n = lengths.pop() if lengths else 0
+    if t is not None and "t" not in cols:
+        # the driver may prepend the undeformed state (F = I) as row 0: its t is left empty
+        tcol = np.array([""] * (n - len(t)) + [repr(float(x)) for x in t], dtype=object)
+        cols = {"t": tcol, **cols}
     out = Path(args.out) if args.out else Path("results") / scene.name / f"point_{args.path}.csv"
     out.parent.mkdir(parents=True, exist_ok=True)
-    n = len(next(iter(cols.values()))) if cols else 0
     with open(out, "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
         w.writerow(list(cols))
         for i in range(n):
-            w.writerow([repr(float(c[i])) if np.issubdtype(c.dtype, np.number) else c[i] for c in cols.values()])
+            w.writerow([_csv_cell(c[i]) for c in cols.values()])
     _say(f"fenics-plast point: {n} rows ({', '.join(cols)}) -> {out}")
     return EXIT_OK
 

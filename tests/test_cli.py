@@ -151,3 +151,24 @@ def test_read_deformation_table(tmp_path):
     f.write_text("t,F11\n0,1\n")
     with pytest.raises(ValueError, match="header"):
         cli.read_deformation_table(f)
+
+
+def test_point_table_via_cli(tmp_path):
+    pytest.importorskip("numba")
+    try:
+        import fenics_plast.material.point  # noqa: F401  (written by the material developer)
+    except ImportError:
+        pytest.skip("fenics_plast.material.point not available")
+    scene = tmp_path / "good.toml"
+    scene.write_text(GOOD)
+    f = tmp_path / "F.csv"
+    f.write_text("t,F11,F12,F13,F21,F22,F23,F31,F32,F33\n"
+                 "0.5,1.001,0,0,0,1,0,0,0,1\n1.0,1.05,0,0,0,0.976,0,0,0,0.976\n")
+    out = tmp_path / "p.csv"
+    r = run_cli("point", scene, "--path", "table", "--table", f, "--out", out, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    lines = out.read_text().splitlines()
+    header = lines[0].split(",")
+    assert header[0] == "t" and len(lines) >= 3
+    assert lines[-1].split(",")[0] == "1.0"
+    assert all(len(line.split(",")) == len(header) for line in lines)
