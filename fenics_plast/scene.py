@@ -578,7 +578,17 @@ def parse_scene(text: str, path: str | Path = "<string>", overrides: Iterable[st
         raise SceneError(f"{where}: TOML syntax error: {e}") from None
     overrides = tuple(overrides)
     apply_overrides(raw, overrides, where)
-    return _validate(raw, where, path, overrides)
+    try:
+        return _validate(raw, where, path, overrides)
+    except SceneError as e:
+        # say when the offending key came from the command line
+        msg = str(e)
+        body = msg[len(where) + 2:] if msg.startswith(where + ": ") else msg
+        for text in overrides:
+            key = text.split("=", 1)[0].strip()
+            if body == key or body.startswith(key + " ") or body.startswith(key + ":"):
+                raise SceneError(f"{msg} (from --set {text})") from None
+        raise
 
 
 def load_scene(path: str | Path, overrides: Iterable[str] = ()) -> Scene:
