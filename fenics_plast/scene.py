@@ -452,6 +452,7 @@ def _validate(raw: dict, where: str, path: Path, overrides: tuple[str, ...]) -> 
             if given is not None:
                 allowed = ", ".join(SECTION_KINDS[section])
                 v.fail(f"{section}: section [{section}] is not allowed for kind {kind!r} (only for {allowed})")
+            sections[section] = None   # e.g. scene.contact / scene.tools are None for a bar
             continue
         if section in OPTIONAL_SECTIONS and given is None:
             sections[section] = None
