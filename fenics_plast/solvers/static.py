@@ -315,7 +315,6 @@ class StaticSolver:
                          f"{its} iterations, |R| = {', '.join(f'{n:.2e}' for n in norms[-4:])}")
                 self.restore()
                 dl *= 0.5
-                prev_step = None
                 if dl < min_increment * (1 - 1e-9):
                     raise RunError(
                         f"static solver: no convergence at load factor {lam:.6g} even with the "
@@ -345,6 +344,29 @@ class StaticSolver:
         if self.mixed:
             return self.w.sub(0).collapse()
         return self.w
+
+    def displacement_function(self):
+        """A persistent CG1 Function named "displacement" holding the current u (for XDMF)."""
+        if not hasattr(self, "_u_out"):
+            if self.mixed:
+                Vc, m = self.W.sub(0).collapse()
+                self._u_map = np.asarray(m)
+            else:
+                Vc, self._u_map = self.W, None
+            self._u_out = fem.Function(Vc, name="displacement")
+        if self._u_map is None:
+            self._u_out.x.array[:] = self.w.x.array
+        else:
+            self._u_out.x.array[:] = self.w.x.array[self._u_map]
+        return self._u_out
+
+    def qp_jacobian(self):
+        """det Fbar (= theta for q1p0, J for q1) at the owned quadrature points, shape (n,)."""
+        if not hasattr(self, "_J_expr"):
+            self._J_expr = fem.Expression(ufl.det(self.kin.Fbar(self.u, self.theta)), self.qmap.points)
+            self._J_buf = np.zeros((self.qmap.n_owned, self.qmap.nq))
+        self._J_expr.eval(self.qmap.cells, self._J_buf)
+        return self._J_buf.reshape(-1)
 
     @property
     def dofs(self):
