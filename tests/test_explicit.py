@@ -137,9 +137,11 @@ def test_serial_vs_mpi(tmp_path):
     script = REPO / "tests" / "mpi_explicit_taylor.py"
     mpirun = "/usr/bin/mpirun" if Path("/usr/bin/mpirun").exists() else shutil.which("mpirun")
     out1, out2 = tmp_path / "serial.npz", tmp_path / "mpi.npz"
-    subprocess.run([sys.executable, str(script), str(out1), "5"], check=True, cwd=REPO, timeout=300)
     # a clean environment: this process is an MPI singleton whose OMPI_/PMIX_ variables confuse mpirun
     env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "OPAL_"))}
+    p = subprocess.run([sys.executable, str(script), str(out1), "5"], cwd=REPO, timeout=300, env=env,
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
     p = subprocess.run([mpirun, "--allow-run-as-root", "--oversubscribe", "-n", "2", sys.executable, str(script),
                         str(out2), "5"], cwd=REPO, timeout=300, env=env, capture_output=True, text=True)
     assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
