@@ -94,9 +94,10 @@ class QuadratureMap:
         self.material.update_into(Fu, self.binv, self.eqps, self.tau_values,
                                   self.binv_trial, self.eqps_trial, a)
         if not np.isfinite(self.tau_values).all() or (tangent and not np.isfinite(a).all()):
+            with np.errstate(all="ignore"):
+                detmin = float(np.nanmin(np.linalg.det(Fu))) if np.isfinite(Fu).all() else float("nan")
             raise MaterialUpdateError(
-                "material update returned non-finite stress/tangent "
-                f"(min det Fu = {np.linalg.det(Fu).min():.3e})")
+                f"material update returned non-finite stress/tangent (min det Fu = {detmin:.3e})")
         self._write(self.tau, self.tau_values, 9)
         if tangent:
             self._write(self.a, a, 81)

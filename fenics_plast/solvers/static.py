@@ -97,6 +97,8 @@ class StaticSolver:
         self.increments = []    # dicts per converged increment
         self.norms = []         # residual norms of the current solve
         self.total_iterations = 0
+        self.cutbacks = []      # failed attempts (load_factor, step, iterations, reason)
+        self.total_iterations_failed = 0
 
     # -- problem definition -------------------------------------------------------------------
     def log(self, msg):
@@ -134,16 +136,22 @@ class StaticSolver:
             J = ufl.derivative(R, self.w, ufl.TrialFunction(self.W))
         self._extra_J.append(J)
 
-    def constrained_dofs(self, component, facet_tags, tag):
-        """Owned W-dof indices of u[component] on the facets (for reactions)."""
+    def constrained_dofs(self, component, facet_tags, tag, where=None):
+        """Owned W-dof indices of u[component] on the facets (for reactions).
+
+        ``where(X) -> bool mask`` optionally filters by the dof coordinates X (n, 3).
+        """
         fdim = self.mesh.topology.dim - 1
         facets = self._facets(facet_tags, tag)
         Vsub = self.V.sub(component)
         Vc, _ = Vsub.collapse()
-        dofs = fem.locate_dofs_topological((Vsub, Vc), fdim, facets)[0]
+        dofs, cdofs = fem.locate_dofs_topological((Vsub, Vc), fdim, facets)
         imap = self.W.dofmap.index_map
         n_owned = imap.size_local * self.W.dofmap.index_map_bs
-        return np.asarray(dofs[dofs < n_owned], dtype=np.int32)
+        keep = dofs < n_owned
+        if where is not None:
+            keep &= np.asarray(where(Vc.tabulate_dof_coordinates()[cdofs]), dtype=bool)
+        return np.asarray(dofs[keep], dtype=np.int32)
 
     @property
     def bcs(self):
@@ -184,6 +192,10 @@ class StaticSolver:
         snes.setFromOptions()
         snes.getKSP().setFromOptions()
         self._setup_done = True
+
+    def _set_linesearch(self, kind):
+        PETSc.Options()[self.prefix + "snes_linesearch_type"] = kind
+        self.snes.setFromOptions()
 
     def _monitor(self, snes, its, norm):
         self.norms.append(float(norm))
@@ -238,6 +250,10 @@ class StaticSolver:
         self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         self.norms = []
         self._bad_update = False
+        # absolute tolerance: atol, or rtol x the internal-force norm of the last converged state
+        # (a residual below ~1e-12 of the forces is round-off; tiny cut-back steps must not chase it)
+        o = self.options
+        self.snes.setTolerances(atol=max(o["atol"], o["rtol"] * self.force_scale))
         try:
             self.snes.solve(None, self.x)
         except PETSc.Error as e:   # pragma: no cover - callbacks catch the expected failures
@@ -246,7 +262,6 @@ class StaticSolver:
         reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
         ksp_reason = self.snes.getKSP().getConvergedReason()
-        self.total_iterations += its
         ok = reason > 0 and not self._bad_update and all(np.isfinite(self.norms))
         why = _REASONS.get(reason, str(reason))
         if self._bad_update:
@@ -254,8 +269,11 @@ class StaticSolver:
         elif ksp_reason < 0:
             why += f" (linear solve failed, KSP reason {ksp_reason}{self._mumps_info()})"
         if ok:
+            self.total_iterations += its
             self._set_state(self.x)
             self.qmap.update(tangent=False)
+        else:
+            self.total_iterations_failed += its
         return ok, its, why
 
     def _mumps_info(self):
@@ -265,7 +283,10 @@ class StaticSolver:
         except Exception:  # noqa: BLE001
             return ""
 
+    force_scale = 0.0
+
     def commit(self):
+        self.force_scale = self.internal_force_norm()
         self.qmap.commit()
         self.w_nm1.x.array[:] = self.w_n.x.array
         self.w_n.x.array[:] = self.w.x.array
@@ -296,6 +317,17 @@ class StaticSolver:
             lam = self.lam_converged + dl
             t0 = time.perf_counter()
             ok, its, why = self.solve_increment(lam, prev_step)
+            if not ok and self.options["linesearch"] != "basic":
+                # the elastic/plastic switch makes the residual non-smooth; a damped line search
+                # can stall where full Newton steps go through: retry once with full steps
+                self.log(f"  retry at load {lam:.6g} with full Newton steps ({why})")
+                self.cutbacks.append(dict(load_factor=lam, step=dl, iterations=its, reason=why,
+                                          retry="basic"))
+                self._set_linesearch("basic")
+                try:
+                    ok, its, why = self.solve_increment(lam, prev_step)
+                finally:
+                    self._set_linesearch(self.options["linesearch"])
             dt = time.perf_counter() - t0
             norms = list(self.norms)
             if ok:
@@ -314,6 +346,7 @@ class StaticSolver:
                 self.log(f"  cut back at load {lam:.6g} (step {dl:.3g}): {why}, "
                          f"{its} iterations, |R| = {', '.join(f'{n:.2e}' for n in norms[-4:])}")
                 self.restore()
+                self.cutbacks.append(dict(load_factor=lam, step=dl, iterations=its, reason=why))
                 dl *= 0.5
                 if dl < min_increment * (1 - 1e-9):
                     raise RunError(
@@ -333,6 +366,11 @@ class StaticSolver:
         fpetsc.assemble_vector(self.r_int, self.Rint_form)
         self.r_int.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         return self.r_int.array_r
+
+    def internal_force_norm(self):
+        """2-norm of the assembled internal force (reactions included), all ranks."""
+        self.internal_force()
+        return self.r_int.norm()
 
     def reaction(self, dofs):
         """Total reaction (sum of R_u over the given owned dofs, all ranks)."""

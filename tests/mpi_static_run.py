@@ -1,0 +1,42 @@
+"""Helper for tests/test_static.py: a small plastic necking-bar run (serial or under mpirun).
+
+Writes JSON {"reactions": [...], "nodes": {"x,y": [u_r, u_z]}} to argv[1].
+"""
+import json
+import sys
+
+import numpy as np
+from mpi4py import MPI
+
+from fenics_plast.material import Hardening, Material
+from fenics_plast.scenes.bar_tension import build
+
+
+def main(path):
+    comm = MPI.COMM_WORLD
+    mat = Material(206.9e3, 0.29, Hardening("voce", yield_stress=450.0, Q=265.0, b=16.93, modulus=129.24),
+                   model="isochoric")
+    s, info = build(comm, 6.413, 26.667, 4, 12, 0.018, mat, element="q1p0",
+                    solver_options=dict(rtol=1e-10, atol=1e-8), verbose=False)
+    for bc, g, g0 in s._bcs:
+        g0 *= 3.0
+    reactions = []
+    s.run(increments=6, max_increment=0.2, min_increment=1e-3,
+          callback=lambda sv: reactions.append(sv.reaction(info["top_dofs"])) and False)
+    u = s.displacement_function()
+    X = u.function_space.tabulate_dof_coordinates()
+    n_owned = u.function_space.dofmap.index_map.size_local
+    vals = u.x.array.reshape(-1, 2)
+    local = {f"{X[i, 0]:.6f},{X[i, 1]:.6f}": vals[i].tolist() for i in range(n_owned)}
+    gathered = comm.gather(local, root=0)
+    if comm.rank == 0:
+        nodes = {}
+        for d in gathered:
+            nodes.update(d)
+        with open(path, "w") as f:
+            json.dump(dict(reactions=reactions, nodes=nodes,
+                           load_factors=[r["load_factor"] for r in s.increments]), f)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])

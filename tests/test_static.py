@@ -1,0 +1,188 @@
+"""Quasi-static finite-strain solver (issue 3): meshes, kinematics, quadrature map, SNES solver."""
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from fenics_plast.material import Hardening, Material
+from fenics_plast.scenes.bar_tension import build as build_bar
+from fenics_plast.scenes.thick_cylinder import limit_pressure, solve as solve_ring
+
+ROOT = Path(__file__).resolve().parent.parent
+COMM = MPI.COMM_WORLD
+
+
+def uniaxial_reference(material, stretches):
+    """Material-point uniaxial Kirchhoff stress tau_zz along the given axial stretch path.
+
+    Lateral stretch found by Newton (finite differences) so that tau_rr = tau_tt = 0; the state is
+    committed at each stretch (same increments as the FE run).
+    """
+    binv = np.eye(3)[None].copy()
+    eqps = np.zeros(1)
+    lz_n, lr_n = 1.0, 1.0
+    out = []
+    for lz in stretches:
+        def trr(lr):
+            Fu = np.diag([lr / lr_n, lz / lz_n, lr / lr_n])[None]
+            tau, b, e, _ = material.update(Fu, binv, eqps, tangent=False)
+            return tau[0, 0, 0], tau, b, e
+        lr = lr_n * (lz / lz_n) ** -0.5
+        for _ in range(50):
+            f, tau, b, e = trr(lr)
+            h = 1e-7 * lr
+            df = (trr(lr + h)[0] - trr(lr - h)[0]) / (2 * h)
+            step = f / df
+            lr -= step
+            if abs(step) < 1e-15:
+                break
+        f, tau, b, e = trr(lr)
+        binv, eqps, lz_n, lr_n = b, e, lz, lr
+        out.append(tau[0, 1, 1])
+    return np.array(out)
+
+
+def test_meshes_tags_and_parameters():
+    from fenics_plast.meshing import bar_mesh, blank_mesh, ring_mesh
+    mesh, ct, ft, ids = bar_mesh(COMM, 2.0, 10.0, 3, 7, imperfection=0.1)
+    assert {"axis", "bottom", "top", "outer"} <= set(ids)
+    assert mesh.topology.index_map(2).size_global == 21
+    x = mesh.geometry.x
+    rmax_bottom = COMM.allreduce(x[np.isclose(x[:, 1], 0.0), 0].max(initial=0.0), op=MPI.MAX)
+    assert rmax_bottom == pytest.approx(1.8)
+    mesh, ct, ft, ids = blank_mesh(COMM, 50.0, 1.0, 20, 3, grading=2.0)
+    assert {"axis", "lower", "upper", "rim"} <= set(ids)
+    assert mesh.topology.index_map(2).size_global == 60
+    mesh, ct, ft, ids = ring_mesh(COMM, 1.0, 2.0, 4, 8)
+    assert {"inner", "outer", "left", "bottom"} <= set(ids)
+    r = np.hypot(mesh.geometry.x[:, 0], mesh.geometry.x[:, 1])
+    assert r.min() == pytest.approx(1.0) and r.max() == pytest.approx(2.0)
+    n_inner = COMM.allreduce(len([f for f in ft.find(ids["inner"])
+                                  if f < mesh.topology.index_map(1).size_local]), op=MPI.SUM)
+    assert n_inner == 8
+
+
+@pytest.mark.parametrize("element", ["q1p0", "q1"])
+def test_homogeneous_uniaxial_bar_matches_material_point(element):
+    """(a) Homogeneous bar: FE force-elongation = material-point uniaxial stress, 1e-6 relative."""
+    R, L, d = 1.5, 4.0, 1.2          # 30 % elongation, well into the plastic range
+    mat = Material(200e3, 0.3, Hardening("linear", yield_stress=250.0, modulus=2000.0), model="isochoric")
+    s, info = build_bar(COMM, R, L, 2, 3, 0.0, mat, element=element,
+                        solver_options=dict(rtol=1e-11, atol=1e-9), verbose=False)
+    for bc, g, g0 in s._bcs:
+        g0 *= d
+    forces = []
+    s.run(increments=8, max_increment=0.2, callback=lambda sv: forces.append(sv.reaction(info["top_dofs"])) and False)
+    lams = np.array([r["load_factor"] for r in s.increments])
+    stretch = 1 + lams * d / L
+    tau_zz = uniaxial_reference(mat, stretch)
+    ref = tau_zz * math.pi * R ** 2 / stretch      # sigma_zz * current area = tau_zz * A0 / lambda_z
+    forces = np.array(forces)
+    assert s.qmap.eqps.max() > 0.1
+    np.testing.assert_allclose(forces, ref, rtol=1e-6)
+
+
+def test_thick_cylinder_limit_pressure_and_locking():
+    """(b) Plane strain, elastic-perfectly plastic, nu = 0.49, b/a = 2: Q1/P0 limit within 1 %,
+    plain Q1 locks (overshoots by more than the Q1/P0 error)."""
+    sy = 20.0
+    mat = Material(200e3, 0.49, Hardening("linear", yield_stress=sy, modulus=0.0), model="isochoric")
+    exact = limit_pressure(sy, 1.0, 2.0)
+    res = {}
+    for element in ("q1p0", "q1"):
+        r = solve_ring(COMM, 1.0, 2.0, 6, 12, mat, element=element, increments=10, max_increment=0.1,
+                       verbose=False)
+        assert r["converged"]
+        res[element] = r["limit_pressure_MPa"] / exact - 1
+    print(f"limit pressure errors: q1p0 {res['q1p0']:+.4%}, q1 {res['q1']:+.4%}")
+    assert abs(res["q1p0"]) < 0.01
+    assert res["q1"] > abs(res["q1p0"])
+    assert res["q1"] > 0.05
+
+
+def test_newton_quadratic_in_plastic_increment():
+    """(c) Plastic increments of the necking bar converge quadratically (consistent tangent).
+
+    Residual norms below 1e-12 x the largest norm of the run are round-off (about 2e-8 N here) and
+    are left out. Asserted: r_{k+1} <= 1e-3 r_k^2 [1/N] for every step that starts below 100 N
+    (the quadratic constant of this problem is about 2e-5 to 1e-4), and the best final convergence
+    order log(r_{k+1}/r_k) / log(r_k/r_{k-1}) of the increments is >= 1.8.
+    """
+    mat = Material(206.9e3, 0.29, Hardening("voce", yield_stress=450.0, Q=265.0, b=16.93, modulus=129.24),
+                   model="isochoric")
+    s, info = build_bar(COMM, 6.413, 26.667, 4, 12, 0.018, mat, element="q1p0",
+                        solver_options=dict(rtol=1e-11, atol=1e-9, max_iterations=30), verbose=False)
+    for bc, g, g0 in s._bcs:
+        g0 *= 3.0
+    s.run(increments=5, max_increment=0.2, lam_end=0.6)
+    floor = 1e-12 * max(max(rec["norms"]) for rec in s.increments)
+    orders, checked = [], 0
+    for rec in s.increments:
+        assert s.qmap.eqps.max() > 0
+        r = [x for x in rec["norms"] if x > floor]
+        for k in range(len(r) - 1):
+            if r[k] < 100.0:
+                assert r[k + 1] <= 1e-3 * r[k] ** 2, rec["norms"]
+                checked += 1
+        if len(r) >= 3:
+            orders.append(math.log(r[-1] / r[-2]) / math.log(r[-2] / r[-3]))
+    print("final convergence orders per increment:", ["%.2f" % o for o in orders])
+    print("norms:", [["%.2e" % n for n in rec["norms"]] for rec in s.increments])
+    assert checked >= 3
+    assert max(orders) >= 1.8
+
+
+def test_serial_and_mpi_agree(tmp_path):
+    """(d) Serial vs mpirun -n 2: displacements and reactions agree to 1e-8 relative."""
+    if COMM.size > 1:
+        pytest.skip("spawns its own runs")
+    script = ROOT / "tests" / "mpi_static_run.py"
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    subprocess.run([sys.executable, str(script), str(tmp_path / "s.json")], check=True, env=env,
+                   cwd=tmp_path, capture_output=True, timeout=300)
+    subprocess.run(["/usr/bin/mpirun", "--allow-run-as-root", "-n", "2", sys.executable, str(script),
+                    str(tmp_path / "p.json")], check=True, env=env, cwd=tmp_path, capture_output=True,
+                   timeout=300)
+    a = json.loads((tmp_path / "s.json").read_text())
+    b = json.loads((tmp_path / "p.json").read_text())
+    assert a["load_factors"] == pytest.approx(b["load_factors"], rel=1e-12)
+    np.testing.assert_allclose(b["reactions"], a["reactions"], rtol=1e-8)
+    assert set(a["nodes"]) == set(b["nodes"])
+    ua = np.array([a["nodes"][k] for k in sorted(a["nodes"])])
+    ub = np.array([b["nodes"][k] for k in sorted(a["nodes"])])
+    assert np.abs(ua - ub).max() <= 1e-8 * np.abs(ua).max()
+
+
+def test_too_large_first_increment_is_cut_back():
+    """(e) One increment of the whole (strongly plastic) load is cut back and the run finishes."""
+    mat = Material(206.9e3, 0.29, Hardening("voce", yield_stress=450.0, Q=265.0, b=16.93, modulus=129.24),
+                   model="isochoric")
+    s, info = build_bar(COMM, 6.413, 26.667, 4, 12, 0.018, mat, element="q1p0",
+                        solver_options=dict(max_iterations=8), verbose=False)
+    for bc, g, g0 in s._bcs:
+        g0 *= 7.0
+    assert s.run(increments=1, max_increment=1.0, min_increment=1e-4)
+    assert len(s.cutbacks) >= 1
+    assert s.cutbacks[0]["load_factor"] == pytest.approx(1.0)
+    assert s.lam_converged == pytest.approx(1.0)
+    assert s.increments[0]["load_factor"] < 1.0
+
+
+def test_min_increment_raises_run_error():
+    from fenics_plast.errors import RunError
+    mat = Material(206.9e3, 0.29, Hardening("voce", yield_stress=450.0, Q=265.0, b=16.93, modulus=129.24),
+                   model="isochoric")
+    s, info = build_bar(COMM, 6.413, 26.667, 2, 6, 0.018, mat, element="q1p0",
+                        solver_options=dict(max_iterations=2), verbose=False)
+    for bc, g, g0 in s._bcs:
+        g0 *= 7.0
+    with pytest.raises(RunError, match="no convergence"):
+        s.run(increments=1, max_increment=1.0, min_increment=0.2)
