@@ -49,26 +49,6 @@ def uniaxial_reference(material, stretches):
     return np.array(out)
 
 
-def test_meshes_tags_and_parameters():
-    from fenics_plast.meshing import bar_mesh, blank_mesh, ring_mesh
-    mesh, ct, ft, ids = bar_mesh(COMM, 2.0, 10.0, 3, 7, imperfection=0.1)
-    assert {"axis", "bottom", "top", "outer"} <= set(ids)
-    assert mesh.topology.index_map(2).size_global == 21
-    x = mesh.geometry.x
-    rmax_bottom = COMM.allreduce(x[np.isclose(x[:, 1], 0.0), 0].max(initial=0.0), op=MPI.MAX)
-    assert rmax_bottom == pytest.approx(1.8)
-    mesh, ct, ft, ids = blank_mesh(COMM, 50.0, 1.0, 20, 3, grading=2.0)
-    assert {"axis", "lower", "upper", "rim"} <= set(ids)
-    assert mesh.topology.index_map(2).size_global == 60
-    mesh, ct, ft, ids = ring_mesh(COMM, 1.0, 2.0, 4, 8)
-    assert {"inner", "outer", "left", "bottom"} <= set(ids)
-    r = np.hypot(mesh.geometry.x[:, 0], mesh.geometry.x[:, 1])
-    assert r.min() == pytest.approx(1.0) and r.max() == pytest.approx(2.0)
-    n_inner = COMM.allreduce(len([f for f in ft.find(ids["inner"])
-                                  if f < mesh.topology.index_map(1).size_local]), op=MPI.SUM)
-    assert n_inner == 8
-
-
 @pytest.mark.parametrize("element", ["q1p0", "q1"])
 def test_homogeneous_uniaxial_bar_matches_material_point(element):
     """(a) Homogeneous bar: FE force-elongation = material-point uniaxial stress, 1e-6 relative."""
@@ -186,3 +166,67 @@ def test_min_increment_raises_run_error():
         g0 *= 7.0
     with pytest.raises(RunError, match="no convergence"):
         s.run(increments=1, max_increment=1.0, min_increment=0.2)
+
+
+THICK_CYLINDER = """
+[scene]
+name = "ring"
+kind = "thick_cylinder"
+[mesh]
+geometry = "plane_strain"
+element = "q1p0"
+inner_radius = 10.0
+outer_radius = 20.0
+cells_radial = 4
+cells_circumferential = 8
+[material]
+E = 200e3
+nu = 0.49
+[material.hardening]
+law = "linear"
+yield_stress = 20.0
+[loading]
+pressure = 100.0
+[solver]
+increments = 6
+max_increment = 0.2
+"""
+
+
+def test_thick_cylinder_runner(tmp_path):
+    from fenics_plast.output import RunOutput
+    from fenics_plast.scene import parse_scene
+    from fenics_plast.scenes.thick_cylinder import run
+    scene = parse_scene(THICK_CYLINDER, tmp_path / "ring.toml")
+    res = run(scene, RunOutput(tmp_path / "out", COMM))
+    exact = limit_pressure(20.0, 10.0, 20.0)
+    assert res["converged"] and not res["pressure_reached"]
+    assert res["analytic_limit_pressure_MPa"] == pytest.approx(exact)
+    assert abs(res["limit_pressure_MPa"] / exact - 1) < 0.02
+    assert res["cells"] == 32
+
+
+def test_bar_tension_runner_outputs(tmp_path):
+    """The demo scene on a coarse mesh through run(scene, output): history, XDMF, plot, summary."""
+    from fenics_plast.output import RunOutput
+    from fenics_plast.scene import parse_scene
+    from fenics_plast.scenes.bar_tension import run
+    text = (ROOT / "demos" / "bar_tension.toml").read_text()
+    scene = parse_scene(text, ROOT / "demos" / "bar_tension.toml",
+                        ["mesh.cells_radial=3", "mesh.cells_axial=8", "loading.displacement=2.0"])
+    out = RunOutput(tmp_path / "out", COMM)
+    res = run(scene, out)
+    out.finish(res)
+    for key in ("max_force_kN", "elongation_at_max_mm", "min_radius_mm", "cells", "dofs", "converged",
+                "increments", "newton_iterations"):
+        assert key in res
+    assert res["converged"] and res["cells"] == 24
+    assert 50.0 < res["max_force_kN"] < 100.0
+    if COMM.rank == 0:
+        header = (tmp_path / "out" / "history.csv").read_text().splitlines()[0].split(",")
+        assert "elongation_mm" in header and "force_kN" in header
+        assert (tmp_path / "out" / "fields.xdmf").exists()
+        assert (tmp_path / "out" / "force_elongation.png").exists()
+        xdmf = (tmp_path / "out" / "fields.xdmf").read_text()
+        for name in ("displacement", "equivalent_plastic_strain", "von_mises_stress", "pressure"):
+            assert f'Attribute Name="{name}"' in xdmf

@@ -317,13 +317,15 @@ class StaticSolver:
             lam = self.lam_converged + dl
             t0 = time.perf_counter()
             ok, its, why = self.solve_increment(lam, prev_step)
-            if not ok and self.options["linesearch"] != "basic":
-                # the elastic/plastic switch makes the residual non-smooth; a damped line search
-                # can stall where full Newton steps go through: retry once with full steps
-                self.log(f"  retry at load {lam:.6g} with full Newton steps ({why})")
+            if not ok:
+                # the elastic/plastic switch makes the residual non-smooth: a damped line search
+                # can stall where full Newton steps go through, and full steps can overshoot where
+                # backtracking helps. Retry the same step once with the other kind.
+                other = "bt" if self.options["linesearch"] == "basic" else "basic"
+                self.log(f"  retry at load {lam:.6g} with line search {other} ({why})")
                 self.cutbacks.append(dict(load_factor=lam, step=dl, iterations=its, reason=why,
-                                          retry="basic"))
-                self._set_linesearch("basic")
+                                          retry=other))
+                self._set_linesearch(other)
                 try:
                     ok, its, why = self.solve_increment(lam, prev_step)
                 finally:
