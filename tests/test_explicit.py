@@ -162,3 +162,12 @@ def test_taylor_bar_80us_against_seed():
     assert 21.38 <= res["final_length_mm"] <= 21.50
     assert 2.8 <= res["max_eqps"] <= 3.3
     assert res["energy_balance_error"] < 0.01
+
+
+def test_fixed_step_stopped_when_the_mesh_crushes_below_it():
+    """A fixed step just below the initial limit becomes too large as the impact face crushes:
+    the run stops with a RunError naming the limit instead of blowing up."""
+    s = build(taylor(), log=lambda m: None)
+    steps = int(math.ceil(80e-6 / (0.95 * s.stable_dt())))
+    with pytest.raises(RunError, match="stable limit"):
+        simulate(taylor(f"solver.steps={steps}"), None, log=lambda m: None)

@@ -36,7 +36,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from fenics_plast.errors import RunError
-from fenics_plast.quadrature import QuadratureMap
+from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 
 # basix vertex order of a quadrilateral is tensor-product (0,0) (1,0) (0,1) (1,1); cyclic order:
 _QUAD_CYCLE = np.array([0, 1, 3, 2])
@@ -202,7 +202,7 @@ class ExplicitDynamics:
         self.W_int = 0.0          # local (owned) accumulators, reduced when reported
         self.W_ext = 0.0
         self.KE0 = None
-        self._row_times = []
+        self._failure = None
         self.timings["setup_s"] = time.perf_counter() - t0
 
     @staticmethod
@@ -237,7 +237,13 @@ class ExplicitDynamics:
         """Material update + commit at the current u, then f_int into self.f (owned)."""
         if self.theta is not None:
             self._update_theta()
-        self.qmap.update(tangent=False)
+        try:
+            self.qmap.update(tangent=False)
+        except MaterialUpdateError as e:
+            # may happen on one rank only: keep going so that the collectives below stay matched;
+            # the non-finite stress reaches the (global) kinetic-energy check of run()
+            if self._failure is None:
+                self._failure = f"{e} at step {self.step_count + 1}"
         self.qmap.commit()
         b = self._f
         with b.localForm() as bl:
@@ -356,18 +362,27 @@ class ExplicitDynamics:
                     dt = 0.5 * (tr - self.t)
             try:
                 self.step(dt)
-            except Exception as e:                    # non-finite material update, singular Fu, ...
-                if "non-finite" in str(e) or isinstance(e, (np.linalg.LinAlgError, FloatingPointError,
-                                                            ZeroDivisionError)):
-                    raise RunError(self._unstable_message(dt, f"material update failed: {e}")) from None
-                raise
+            except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:
+                # (rank-local: no collective in the message)
+                raise RunError(self._unstable_message(dt, f"step failed: {e}", dt_stable)) from None
             dt_min, dt_max = min(dt_min, dt), max(dt_max, dt)
             if self.step_count % self.reestimate_every == 0:
                 ke = self.kinetic_energy()
                 if not math.isfinite(ke) or ke > 1.5 * self.KE0 + 1e-30:
-                    raise RunError(self._unstable_message(dt, f"kinetic energy {ke:.4g} vs initial {self.KE0:.4g}"))
+                    why = f"kinetic energy {ke:.4g} N mm vs initial {self.KE0:.4g} N mm"
+                    fail = self.comm.allgather(self._failure)
+                    fail = [f for f in fail if f]
+                    if fail:
+                        why += f"; {fail[0]}"
+                    raise RunError(self._unstable_message(dt, why, dt_stable))
                 if steps is not None:
                     dt_stable = self.stable_dt()
+                    if dt_fixed > dt_stable:       # the mesh has crushed below the fixed step's size
+                        raise RunError(
+                            f"the fixed time step end_time/steps = {dt_fixed:.4g} s exceeds the stable limit "
+                            f"{dt_stable:.4g} s of the deformed mesh at t = {self.t * 1e6:.4g} us (step "
+                            f"{self.step_count}, smallest element {dt_stable * self.c:.4g} mm): raise "
+                            f"solver.steps or drop it (adaptive step)")
             while next_row < len(row_times) and self.t >= row_times[next_row] - eps_t:
                 if on_row is not None:
                     on_row(self, self.t)
@@ -386,8 +401,8 @@ class ExplicitDynamics:
                     dt_stable_final=self.stable_dt(), wall_s=wall,
                     time_per_step_s=wall / max(self.step_count, 1))
 
-    def _unstable_message(self, dt, why):
-        dts = self.stable_dt()
+    def _unstable_message(self, dt, why, dts=None):
+        dts = self.stable_dt() if dts is None else dts
         return (f"explicit run went unstable at t = {self.t * 1e6:.4g} us (step {self.step_count}): {why}; "
                 f"time step {dt:.4g} s, current stable limit {dts:.4g} s. Lower solver.dt_safety or raise "
                 f"solver.steps")
