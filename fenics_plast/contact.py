@@ -266,6 +266,17 @@ class ContactPair:
         arr = den.array
         arr[arr == 0.0] = 1.0
         self._den = den
+        # nodal status [in contact, slipping] (diagnostics)
+        incontact = ufl.conditional(ufl.lt(g, 0.0), 1.0, 0.0)
+        if self.t_scalar is not None:
+            slipping = incontact * ufl.conditional(ufl.gt(abs(self.t_trial), self.bound), 1.0, 0.0)
+        else:
+            slipping = incontact
+        self.S = fem.FunctionSpace(mesh, ufl.VectorElement("Lagrange", cell, 1, dim=2))
+        qs = ufl.TestFunction(self.S)
+        self._status = fem.form(ufl.inner(ufl.as_vector([incontact, slipping]), qs) * self.ds)
+        self._status_den = fpetsc.assemble_vector(fem.form(ufl.inner(ufl.as_vector([1.0, 1.0]), qs) * self.ds))
+        self._status_den.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         # post-processing forms
         self._force = [fem.form(traction[i] * w * self.ds) for i in range(2)]
         self._normal_force = fem.form(self.p * w * self.ds)
@@ -300,6 +311,19 @@ class ContactPair:
         b.pointwiseDivide(b, self._den)
         b.copy(self.hist.vector)
         self.hist.x.scatter_forward()
+
+    def status(self):
+        """(nodes in contact, nodes slipping) at the current state, all ranks (frictionless: all slip)."""
+        b = fpetsc.assemble_vector(self._status)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        den = self._status_den.array
+        a = b.array.reshape(-1, 2)
+        d = den.reshape(-1, 2)
+        on = d[:, 0] > 0
+        vals = np.rint(a[on] / d[on])
+        local = vals.sum(axis=0) if len(vals) else np.zeros(2)
+        tot = self.contact.comm.allreduce(local, op=MPI.SUM)
+        return int(tot[0]), int(tot[1])
 
     def _sum(self, form):
         return self.contact.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
@@ -365,9 +389,18 @@ class PenaltyContact:
             R = p.R if R is None else R + p.R
         return R
 
+    def trial_function(self):
+        """The solver's own trial Argument (a fresh ufl.TrialFunction(W) may differ in its repr on
+        meshes from dolfinx.mesh.create_*, which UFL then refuses to combine)."""
+        from ufl.algorithms.analysis import extract_arguments
+        for a in extract_arguments(self.solver.J_int):
+            if a.number() == 1:
+                return a
+        return ufl.TrialFunction(self.solver.W)
+
     def jacobian(self):
         R = self.residual()
-        return ufl.derivative(R, self.solver.w, ufl.TrialFunction(self.solver.W))
+        return ufl.derivative(R, self.solver.w, self.trial_function())
 
     def attach(self):
         """Add the contact residual and its consistent Jacobian to the solver."""

@@ -1,0 +1,372 @@
+"""Frictional penalty contact (fenics_plast.contact) and the punch-stretching scene.
+
+Fast tests: an elastic block (plane strain) pressed on a rigid flat wall and pushed sideways
+(Coulomb limit, stick, Jacobian symmetry, quadratic Newton), a short coarse punch run (penetration,
+penalty sensitivity, quadratic Newton on a curved tool, serial vs mpirun -n 2).
+Slow: the full scenes (mu = 0, 0.15, 0.3; Coulomb vs Quasi-Coulomb) against the seed's findings.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import ufl
+from dolfinx import fem
+from dolfinx import mesh as dm
+import dolfinx.fem.petsc as fpetsc
+from mpi4py import MPI
+
+from fenics_plast.contact import FlatWall, PenaltyContact, NODAL_RULE, default_penalty
+from fenics_plast.kinematics import Kinematics
+from fenics_plast.material import Hardening, Material
+from fenics_plast.solvers.static import StaticSolver
+
+ROOT = Path(__file__).resolve().parent.parent
+PY = sys.executable
+MU = 0.3
+EPS = 1e4          # normal and tangential penalty of the block tests [N/mm^3]
+D = 0.01           # compression of the block by the wall [mm]
+
+
+def block(law, mu=MU, sx=0.05, nx=4, ny=2, path=None):
+    """Elastic 2 x 1 block (plane strain), top fixed; the wall z = 0 moves up by D (lam 0 -> 0.5),
+    then sideways by sx (lam 0.5 -> 1)."""
+    comm = MPI.COMM_WORLD
+    msh = dm.create_rectangle(comm, [np.array([0.0, 0.0]), np.array([2.0, 1.0])], [nx, ny],
+                              dm.CellType.quadrilateral)
+    msh.topology.create_connectivity(1, 2)
+    bot = dm.locate_entities_boundary(msh, 1, lambda x: np.isclose(x[1], 0.0))
+    top = dm.locate_entities_boundary(msh, 1, lambda x: np.isclose(x[1], 1.0))
+    idx = np.concatenate([bot, top]).astype(np.int32)
+    val = np.concatenate([np.full(len(bot), 1, np.int32), np.full(len(top), 2, np.int32)])
+    o = np.argsort(idx)
+    ft = dm.meshtags(msh, 1, idx[o], val[o])
+    kin = Kinematics(msh, "plane_strain")
+    s = StaticSolver(kin, Material(1000.0, 0.3, None), element="q1p0", rtol=1e-13, atol=1e-11,
+                     verbose=False)
+    s.add_dirichlet(0, ft, 2, 0.0)
+    s.add_dirichlet(1, ft, 2, 0.0)
+    wall = FlatWall(point=(0.0, 0.0), normal=(0.0, 1.0),
+                    path=path or [(0.0, 0.0, 0.0), (0.5, 0.0, D), (1.0, sx, D)])
+    c = PenaltyContact(s, EPS, friction=mu, law=law)
+    pair = c.add_tool(wall, ft, 1)
+    c.attach()
+    s.setup()
+    return s, c, pair
+
+
+def run_block(law, sx=0.05, increments=10, max_increment=0.1, extra=None, **kw):
+    mu = kw.get("mu", MU)
+    """Run and record per increment: forces, status BEFORE commit, norms, normal force at the
+    previous commit (Quasi-Coulomb bound)."""
+    s, c, pair = block(law, sx=sx, **kw)
+    rec = []
+    prev = {"N": 0.0}
+
+    def cb(sol):
+        st = pair.status()
+        F = pair.force()
+        r = dict(lam=sol.lam_converged, Fx=F[0], Fy=F[1], contact=st[0], slip=st[1],
+                 norms=list(sol.increments[-1]["norms"]), N_prev=prev["N"])
+        if extra is not None:
+            r.update(extra(sol, c, pair))
+        rec.append(r)
+        c.commit()
+        prev["N"] = pair.normal_force()
+        return False
+
+    s.run(increments=increments, max_increment=max_increment, callback=cb)
+    return s, c, pair, rec
+
+
+def order(norms, floor=1e-10):
+    """Convergence orders log(r_k+1/r0)/log(r_k/r0) of the iterates above the floor."""
+    r = np.asarray(norms)
+    r0 = r[0]
+    out = []
+    for k in range(1, len(r) - 1):
+        if r[k + 1] > floor and r[k] < 0.5 * r0:
+            out.append(np.log(r[k + 1] / r0) / np.log(r[k] / r0))
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# (a) Coulomb limit and stick
+
+
+@pytest.mark.parametrize("law", ["coulomb", "quasi-coulomb"])
+def test_block_slips_at_mu_times_normal_force(law):
+    s, c, pair, rec = run_block(law, sx=0.05)
+    final = rec[-1]
+    assert final["Fy"] > 10.0                       # pressed: ~21.5 N per unit depth
+    assert final["slip"] == final["contact"] == 5   # every bottom node slides
+    if law == "coulomb":
+        assert abs(final["Fx"] - MU * final["Fy"]) <= 1e-9 * final["Fy"]
+    else:   # the bound is mu p_n of the last converged increment
+        assert abs(final["Fx"] - MU * final["N_prev"]) <= 1e-9 * final["Fy"]
+        assert abs(final["Fx"] - MU * final["Fy"]) <= 1e-3 * final["Fy"]
+    # never above the Coulomb limit
+    for r in rec:
+        bound = MU * (r["Fy"] if law == "coulomb" else r["N_prev"])  # noqa
+        assert abs(r["Fx"]) <= bound * (1 + 1e-9) + 1e-12
+
+
+def _bottom_nodes(sol, pair):
+    """(x-sorted) nodal t_x (committed history) and u_x on the wall side y = 0, owned values."""
+    H = pair.H
+    XH = H.tabulate_dof_coordinates()
+    nH = H.dofmap.index_map.size_local
+    h = pair.hist.x.array.reshape(-1, 5)[:nH]
+    selH = np.isclose(XH[:nH, 1], 0.0)
+    Vc, vmap = sol.V.collapse()
+    XV = Vc.tabulate_dof_coordinates()
+    nV = Vc.dofmap.index_map.size_local
+    u = sol.w.x.array[np.asarray(vmap)].reshape(-1, 2)[:nV]
+    selV = np.isclose(XV[:nV, 1], 0.0)
+    oh, ov = np.argsort(XH[:nH][selH, 0]), np.argsort(XV[:nV][selV, 0])
+    return h[selH][oh, 0], u[selV][ov, 0]
+
+
+@pytest.mark.parametrize("law", ["coulomb", "quasi-coulomb"])
+def test_block_sticks_below_the_limit(law):
+    """Below mu N the block sticks: during the sideways push the change of the tangential traction
+    is exactly -eps_T times the change of the relative displacement (no slip beyond the elastic
+    tangential penalty). (Quasi-Coulomb lets the nodes slide freely in the first increment in
+    contact, where p_n = 0, hence the reference state at the end of the compression.)"""
+    if MPI.COMM_WORLD.size > 1:
+        pytest.skip("nodal comparison in serial")
+    sx = 0.002
+    snap = {}
+
+    def grab(sol, c, pair):
+        return {}
+
+    s, c, pair = block(law, sx=sx, mu=0.6)
+    rec = []
+
+    def cb(sol):
+        st = pair.status()
+        F = pair.force()
+        c.commit()
+        rec.append(dict(lam=sol.lam_converged, Fx=F[0], Fy=F[1], contact=st[0], slip=st[1]))
+        if abs(sol.lam_converged - 0.5) < 1e-12:
+            snap["t"], snap["u"] = _bottom_nodes(sol, pair)
+        return False
+
+    s.run(increments=10, max_increment=0.1, callback=cb)
+    final = rec[-1]
+    assert "t" in snap
+    assert all(r["slip"] == 0 for r in rec if r["lam"] > 0.5) and final["contact"] == 5
+    assert abs(final["Fx"]) > 0.1                       # it does carry a tangential force
+    assert abs(final["Fx"]) < 0.6 * final["Fy"]
+    t, u = _bottom_nodes(s, pair)
+    dt, du = t - snap["t"], u - snap["u"]
+    assert np.max(np.abs(dt)) > 0.05
+    assert np.max(np.abs(dt + EPS * (du - sx))) <= 1e-8 * np.max(np.abs(dt))
+
+
+# ----------------------------------------------------------------------------------------------
+# (b) symmetry of the Quasi-Coulomb Jacobian
+
+
+def _contact_matrix(c):
+    A = fpetsc.assemble_matrix(fem.form(c.jacobian()))
+    A.assemble()
+    M = A.convert("dense").getDenseArray()
+    return M
+
+
+@pytest.mark.parametrize("law", ["quasi-coulomb", "coulomb"])
+def test_jacobian_symmetry(law):
+    """Assemble the contact Jacobian at a converged state with stick AND slip nodes."""
+    found = {}
+
+    def grab(sol, c, pair):
+        st = pair.status()
+        if 0 < st[1] < st[0] and "A" not in found:
+            M = _contact_matrix(c)
+            found["A"] = M
+            found["status"] = st
+        return {}
+
+    if MPI.COMM_WORLD.size > 1:
+        pytest.skip("dense matrix check in serial")
+    run_block(law, sx=0.05, increments=60, max_increment=0.02, extra=grab)
+    assert "A" in found, "no converged state with both stick and slip nodes"
+    A = found["A"]
+    asym = np.linalg.norm(A - A.T) / np.linalg.norm(A)
+    if law == "quasi-coulomb":
+        assert asym < 1e-12
+    else:
+        assert asym > 1e-6          # Coulomb: mu T (x) dp/du in slip, not symmetric
+
+
+# ----------------------------------------------------------------------------------------------
+# (c) quadratic Newton in stick and in slip
+
+
+@pytest.mark.parametrize("law", ["coulomb", "quasi-coulomb"])
+def test_newton_quadratic_in_stick_and_slip(law):
+    s, c, pair, rec = run_block(law, sx=0.2, increments=10, max_increment=0.1, mu=0.6)
+    stick = [r for r in rec if r["slip"] == 0 and r["lam"] > 0.51]
+    slip = [r for r in rec if r["slip"] == r["contact"] == 5]
+    compress = [r for r in rec if r["lam"] <= 0.5 + 1e-12 and r["slip"] == 0]
+    assert slip and (stick or compress)
+    for r in slip + stick + compress:
+        n = r["norms"]
+        if len(n) < 3:
+            continue
+        # the step that leaves the predictor's neighbourhood is superlinear:
+        ords = order(n)
+        if ords:
+            assert max(ords) >= 1.8, (law, n)
+    # in full slip (fixed active set), convergence is quadratic: <= 4 iterations
+    for r in slip[1:]:
+        assert len(r["norms"]) - 1 <= 4, (law, r["norms"])
+
+
+# ----------------------------------------------------------------------------------------------
+# punch: short coarse runs
+
+
+def short_punch(mu=0.15, penalty_factor=1.0, travel=8.0, law="quasi-coulomb", record=None):
+    from fenics_plast.scenes.punch_stretching import build
+    mat = Material(69e3, 0.3, Hardening("swift", K=589.0, eps0=1e-4, n=0.216), model="isochoric")
+    eps = default_penalty(69e3, 1.0) * penalty_factor
+    s, c, info = build(MPI.COMM_WORLD, material=mat, cells_radial=30, cells_thickness=1, travel=travel,
+                       friction=mu, law=law, penalty=eps,
+                       solver_options=dict(rtol=1e-11, atol=1e-8, max_iterations=25), verbose=False)
+    out = dict(d=[], F=[], pen=[], norms=[], status=[])
+
+    def cb(sol):
+        out["status"].append(info["punch"].status())
+        c.commit()
+        out["d"].append(travel * sol.lam_converged)
+        out["F"].append(info["punch"].force()[1])
+        out["pen"].append(c.max_penetration())
+        out["norms"].append(list(sol.increments[-1]["norms"]))
+        return False
+
+    s.run(increments=8, max_increment=0.125, callback=cb)
+    return out
+
+
+def test_punch_penetration_and_penalty_sensitivity():
+    a = short_punch(penalty_factor=1.0)
+    b = short_punch(penalty_factor=10.0)
+    assert a["d"][-1] == pytest.approx(8.0)
+    assert max(a["pen"]) <= 0.01 * 1.0                      # < 1 % of the thickness
+    assert max(b["pen"]) < max(a["pen"])
+    Fa, Fb = a["F"][-1], b["F"][-1]
+    assert Fa > 1e3
+    assert abs(Fa - Fb) / Fb < 0.01
+
+
+def test_punch_newton_quadratic_coulomb():
+    """Coulomb friction on the curved punch: the final iterations of every increment converge
+    quadratically (consistent Jacobian of the return map and of p, N, T)."""
+    a = short_punch(mu=0.3, law="coulomb", travel=6.0)
+    assert any(0 < st[1] < st[0] for st in a["status"]), a["status"]   # stick and slip present
+    for n in a["norms"]:
+        ords = order(n, floor=1e-6)
+        if ords:
+            assert ords[-1] >= 1.5, n
+
+
+# ----------------------------------------------------------------------------------------------
+# (f) serial vs mpirun -n 2
+
+_MPI_SCRIPT = r"""
+import json, sys
+from mpi4py import MPI
+sys.path.insert(0, {root!r})
+from tests.test_contact import short_punch
+out = short_punch(mu=0.15, travel=5.0)
+if MPI.COMM_WORLD.rank == 0:
+    json.dump(dict(F=out["F"], d=out["d"], pen=out["pen"]), open(sys.argv[1], "w"))
+"""
+
+
+@pytest.mark.mpi
+def test_serial_vs_mpi(tmp_path):
+    if MPI.COMM_WORLD.size > 1:
+        pytest.skip("spawns its own mpirun")
+    script = tmp_path / "punch_mpi.py"
+    script.write_text(_MPI_SCRIPT.format(root=str(ROOT)))
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    res = {}
+    for n in (1, 2):
+        f = tmp_path / f"out{n}.json"
+        cmd = [PY, str(script), str(f)] if n == 1 else \
+            ["/usr/bin/mpirun", "--allow-run-as-root", "-n", "2", PY, str(script), str(f)]
+        p = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+        assert p.returncode == 0, p.stderr[-3000:]
+        res[n] = json.loads(f.read_text())
+    assert res[1]["d"] == pytest.approx(res[2]["d"], rel=1e-12)
+    F1, F2 = np.array(res[1]["F"]), np.array(res[2]["F"])
+    assert np.max(np.abs(F1 - F2)) <= 1e-8 * np.max(np.abs(F1))
+
+
+# ----------------------------------------------------------------------------------------------
+# (e) the seed's findings on the full scene (slow)
+
+
+def _run_scene(tmp, mu, law="quasi-coulomb", extra=()):
+    out = Path(tmp) / f"mu{mu}_{law}"
+    cmd = [str(ROOT / ".venv/bin/fenics-plast"), "run", str(ROOT / "demos/punch_stretching.toml"),
+           "--out", str(out), "--set", f"contact.friction={mu}", "--set", f"contact.law={law}", *extra]
+    p = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=1200)
+    summary = json.loads((out / "summary.json").read_text())
+    hist = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    th = np.genfromtxt(out / "thickness_strain.csv", delimiter=",", names=True)
+    return p.returncode, summary, hist, th
+
+
+@pytest.fixture(scope="module")
+def full_runs(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("punch")
+    return {key: _run_scene(tmp, *key) for key in
+            [(0.0,), (0.15,), (0.3,), (0.15, "coulomb")]}
+
+
+@pytest.mark.slow
+def test_full_frictionless_and_015_reach_40mm(full_runs):
+    for key in [(0.0,), (0.15,)]:
+        rc, s, h, th = full_runs[key]
+        assert rc == 0 and s["converged"], s.get("error")
+        assert s["final_punch_displacement_mm"] == pytest.approx(40.0)
+        assert s["max_penetration_mm"] <= 0.01
+
+
+@pytest.mark.slow
+def test_full_friction_raises_force(full_runs):
+    h0, h1, h3 = (full_runs[k][2] for k in [(0.0,), (0.15,), (0.3,)])
+    for d in (10.0, 20.0, 30.0):
+        F = [np.interp(d, h["punch_displacement_mm"], h["punch_force_kN"]) for h in (h0, h1, h3)]
+        assert F[0] < F[1] < F[2], (d, F)
+
+
+@pytest.mark.slow
+def test_full_thinning_moves_outward_with_friction(full_runs):
+    s0, s1, s3 = (full_runs[k][1] for k in [(0.0,), (0.15,), (0.3,)])
+    # mu = 0: max eqps and min thickness at or next to the pole
+    assert s0["r0_of_max_eqps_mm"] < 5.0
+    assert s0["r0_of_min_thickness_mm"] < 5.0
+    # friction: the pole thins much less, the thinnest point moves outward, further for 0.3
+    assert s1["pole_thickness_strain"] > 0.5 * s0["pole_thickness_strain"] + 0.1 * s0["pole_thickness_strain"]
+    assert s3["pole_thickness_strain"] > 0.5 * s0["pole_thickness_strain"]
+    assert 5.0 < s1["r0_of_min_thickness_mm"] < s3["r0_of_min_thickness_mm"]
+
+
+@pytest.mark.slow
+def test_full_coulomb_vs_quasi_coulomb(full_runs):
+    hq, hc = full_runs[(0.15,)][2], full_runs[(0.15, "coulomb")][2]
+    d = np.linspace(5.0, min(hq["punch_displacement_mm"][-1], hc["punch_displacement_mm"][-1]), 20)
+    Fq = np.interp(d, hq["punch_displacement_mm"], hq["punch_force_kN"])
+    Fc = np.interp(d, hc["punch_displacement_mm"], hc["punch_force_kN"])
+    assert np.max(np.abs(Fq - Fc) / Fc) < 0.02
