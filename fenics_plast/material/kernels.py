@@ -46,32 +46,54 @@ import math
 import numba
 import numpy as np
 
-from .hardening import flow_stress
+from .hardening import LINEAR, flow_stress
 
 SEED, ISOCHORIC = 0, 1
 ELASTIC = -1  # hardening code meaning "no plasticity"
 
 _njit = numba.njit(cache=True, fastmath=False, nogil=True)
+# per-point functions are inlined into the loop over points at numba IR level; they take the whole
+# arrays and the point index q (array views such as tau[q] would cost reference counting per point)
+_njit_inline = numba.njit(cache=True, fastmath=False, nogil=True, inline="always")
 
 
-@_njit
-def _inverse3(A, out):
-    """Inverse of a 3x3 matrix by cofactors; returns det(A)."""
-    c00 = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
-    c01 = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
-    c02 = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
-    det = A[0, 0] * c00 + A[0, 1] * c01 + A[0, 2] * c02
-    r = 1.0 / det
-    out[0, 0] = c00 * r
-    out[1, 0] = c01 * r
-    out[2, 0] = c02 * r
-    out[0, 1] = (A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]) * r
-    out[1, 1] = (A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]) * r
-    out[2, 1] = (A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]) * r
-    out[0, 2] = (A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]) * r
-    out[1, 2] = (A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]) * r
-    out[2, 2] = (A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]) * r
-    return det
+@_njit_inline
+def _inverse3(F, q):
+    """Inverse of the 3x3 matrix A = F[q] by cofactors, as the tuple (row-major) of its 9 entries."""
+    a00, a01, a02 = F[q, 0, 0], F[q, 0, 1], F[q, 0, 2]
+    a10, a11, a12 = F[q, 1, 0], F[q, 1, 1], F[q, 1, 2]
+    a20, a21, a22 = F[q, 2, 0], F[q, 2, 1], F[q, 2, 2]
+    c00 = a11 * a22 - a12 * a21
+    c01 = a12 * a20 - a10 * a22
+    c02 = a10 * a21 - a11 * a20
+    r = 1.0 / (a00 * c00 + a01 * c01 + a02 * c02)  # 1/det A
+    return (c00 * r, (a02 * a21 - a01 * a22) * r, (a01 * a12 - a02 * a11) * r,
+            c01 * r, (a00 * a22 - a02 * a20) * r, (a02 * a10 - a00 * a12) * r,
+            c02 * r, (a01 * a20 - a00 * a21) * r, (a00 * a11 - a01 * a10) * r)
+
+
+@_njit_inline
+def _predictor(Fu, Bn, q):
+    """Elastic predictor (11) at point q: bt = Fi^T Bn[q] Fi, Fi = Fu[q]^-1, symmetric by construction.
+
+    Returns its upper triangle (bt00, bt01, bt02, bt11, bt12, bt22).  Scalar code (no
+    scratch arrays, no array views) so that everything stays in registers.
+    """
+    f00, f01, f02, f10, f11, f12, f20, f21, f22 = _inverse3(Fu, q)
+    # G = Bn Fi
+    g00 = Bn[q, 0, 0] * f00 + Bn[q, 0, 1] * f10 + Bn[q, 0, 2] * f20
+    g01 = Bn[q, 0, 0] * f01 + Bn[q, 0, 1] * f11 + Bn[q, 0, 2] * f21
+    g02 = Bn[q, 0, 0] * f02 + Bn[q, 0, 1] * f12 + Bn[q, 0, 2] * f22
+    g10 = Bn[q, 1, 0] * f00 + Bn[q, 1, 1] * f10 + Bn[q, 1, 2] * f20
+    g11 = Bn[q, 1, 0] * f01 + Bn[q, 1, 1] * f11 + Bn[q, 1, 2] * f21
+    g12 = Bn[q, 1, 0] * f02 + Bn[q, 1, 1] * f12 + Bn[q, 1, 2] * f22
+    g20 = Bn[q, 2, 0] * f00 + Bn[q, 2, 1] * f10 + Bn[q, 2, 2] * f20
+    g21 = Bn[q, 2, 0] * f01 + Bn[q, 2, 1] * f11 + Bn[q, 2, 2] * f21
+    g22 = Bn[q, 2, 0] * f02 + Bn[q, 2, 1] * f12 + Bn[q, 2, 2] * f22
+    # bt_ij = sum_k Fi_ki G_kj, i <= j
+    return (f00 * g00 + f10 * g10 + f20 * g20, f00 * g01 + f10 * g11 + f20 * g21,
+            f00 * g02 + f10 * g12 + f20 * g22, f01 * g01 + f11 * g11 + f21 * g21,
+            f01 * g02 + f11 * g12 + f21 * g22, f02 * g02 + f12 * g12 + f22 * g22)
 
 
 @_njit
@@ -173,72 +195,89 @@ def _return_map(q_tr, eps_n, mu, law, hp, yield_tol):
     sy_n = flow_stress(law, hp, eps_n)[0]
     if q_tr - sy_n <= yield_tol * max(sy_n, 1e-300) or q_tr == 0.0:
         return 0.0, 1.0, 0.0
-    dg, h = _plastic_multiplier(q_tr, eps_n, mu, law, hp)
+    if law == LINEAR:
+        # g(dg) = q_tr - 3 mu dg - sigma_0 - H (eps_n + dg) is linear: Newton's first step is exact
+        h = hp[1]
+        dg = (q_tr - sy_n) / (3.0 * mu + h)
+    else:
+        dg, h = _plastic_multiplier(q_tr, eps_n, mu, law, hp)
     theta = 1.0 - 3.0 * mu * dg / q_tr
     c = 6.0 * mu * mu * (1.0 / (3.0 * mu + h) - dg / q_tr)
     return dg, theta, c
 
 
-@_njit
-def _seed_point(Fi, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_tangent, bt, s):
-    """Seed model at one point. Fi = Fu^-1 (3,3); Bn = binv_n; writes tau, Bout, a."""
-    # elastic predictor (11): bt = Fi^T Bn Fi
-    for i in range(3):
-        for j in range(i, 3):
-            acc = 0.0
-            for k in range(3):
-                row = 0.0
-                for m in range(3):
-                    row += Bn[k, m] * Fi[m, j]
-                acc += Fi[k, i] * row
-            bt[i, j] = acc
-            bt[j, i] = acc
-    # Almansi strain and trial Kirchhoff stress (7), (9)
-    tr_e = 0.5 * (3.0 - bt[0, 0] - bt[1, 1] - bt[2, 2])
+@_njit_inline
+def _seed_point(q, Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, ia, want_tangent, bt, nb):
+    """Seed model at point q: reads Fu[q], Bn[q] = binv_n, eps_n[q]; writes tau[q], Bout[q], a[ia].
+
+    The arrays are indexed rather than sliced (no views: no reference counting in the loop).
+
+    bt, nb (3,3) are scratch arrays for the tangent (trial b_e^-1 and N bt).
+    Symmetric tensors are held as their upper triangles in scalars (bt01 = bt10, ...).
+    """
+    # elastic predictor (11)
+    bt00, bt01, bt02, bt11, bt12, bt22 = _predictor(Fu, Bn, q)
+    # Almansi strain and trial Kirchhoff stress (7), (9): e = 1/2 (I - bt), tau = lam tr(e) I + 2 mu e
+    tr_e = 0.5 * (3.0 - bt00 - bt11 - bt22)
     p = (lam + 2.0 * mu / 3.0) * tr_e  # Kirchhoff mean stress
-    for i in range(3):
-        for j in range(3):
-            s[i, j] = -mu * bt[i, j] + (mu if i == j else 0.0)  # 2 mu e
-    mean = (s[0, 0] + s[1, 1] + s[2, 2]) / 3.0
-    for i in range(3):
-        s[i, i] -= mean
-    q_tr = math.sqrt(1.5 * np.sum(s * s))
-    dg, theta, c = _return_map(q_tr, eps_n, mu, law, hp, tol)
+    s00, s11, s22 = -mu * bt00 + mu, -mu * bt11 + mu, -mu * bt22 + mu  # 2 mu e
+    s01, s02, s12 = -mu * bt01, -mu * bt02, -mu * bt12
+    mean = (s00 + s11 + s22) / 3.0
+    s00, s11, s22 = s00 - mean, s11 - mean, s22 - mean  # s = dev(2 mu e)
+    ss = s00 * s00 + s11 * s11 + s22 * s22 + 2.0 * (s01 * s01 + s02 * s02 + s12 * s12)  # s:s
+    q_tr = math.sqrt(1.5 * ss)
+    dg, theta, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
     # plastic corrector (14): binv = bt + 2 dg n,  n = 3/2 s_tr/q_tr;  tau = tau_tr - 2 mu dg n
     fac = 3.0 * dg / q_tr if dg > 0.0 else 0.0
-    for i in range(3):
-        for j in range(3):
-            Bout[i, j] = bt[i, j] + fac * s[i, j]
-            tau[i, j] = (1.0 - mu * fac) * s[i, j] + (p if i == j else 0.0)
+    t = 1.0 - mu * fac
+    Bout[q, 0, 0], Bout[q, 1, 1], Bout[q, 2, 2] = bt00 + fac * s00, bt11 + fac * s11, bt22 + fac * s22
+    Bout[q, 0, 1] = Bout[q, 1, 0] = bt01 + fac * s01
+    Bout[q, 0, 2] = Bout[q, 2, 0] = bt02 + fac * s02
+    Bout[q, 1, 2] = Bout[q, 2, 1] = bt12 + fac * s12
+    tau[q, 0, 0], tau[q, 1, 1], tau[q, 2, 2] = t * s00 + p, t * s11 + p, t * s22 + p
+    tau[q, 0, 1] = tau[q, 1, 0] = t * s01
+    tau[q, 0, 2] = tau[q, 2, 0] = t * s02
+    tau[q, 1, 2] = tau[q, 2, 1] = t * s12
     if not want_tangent:
         return dg
     # a_ijkl = (kappa - 2 mu theta/3) d_ij bt_lk + mu theta (d_il bt_jk + d_jl bt_ik) - c N_ij (N bt)_lk
     kap = lam + 2.0 * mu / 3.0
     c1 = kap - 2.0 * mu * theta / 3.0
     c2 = mu * theta
-    nrm = math.sqrt(np.sum(s * s))
+    bt[0, 0], bt[1, 1], bt[2, 2] = bt00, bt11, bt22
+    bt[0, 1] = bt[1, 0] = bt01
+    bt[0, 2] = bt[2, 0] = bt02
+    bt[1, 2] = bt[2, 1] = bt12
+    # N = s/|s|, c N_ij = cn s_ij;  nb = N bt (not symmetric); both zero when elastic (c = 0)
+    cn = 0.0
+    if c != 0.0:
+        r = 1.0 / math.sqrt(ss)
+        cn = c * r
+        n00, n01, n02, n11, n12, n22 = s00 * r, s01 * r, s02 * r, s11 * r, s12 * r, s22 * r
+        for k in range(3):
+            nb[0, k] = n00 * bt[0, k] + n01 * bt[1, k] + n02 * bt[2, k]
+            nb[1, k] = n01 * bt[0, k] + n11 * bt[1, k] + n12 * bt[2, k]
+            nb[2, k] = n02 * bt[0, k] + n12 * bt[1, k] + n22 * bt[2, k]
+    else:
+        s00 = s01 = s02 = s11 = s12 = s22 = 0.0
+        for l in range(3):
+            for k in range(3):
+                nb[l, k] = 0.0
+    # one (i, j) row of 9 entries at a time, i <= j; the tangent is symmetric in (i, j)
     for i in range(3):
-        for j in range(3):
+        for j in range(i, 3):
+            if i == j:
+                sij = s00 if i == 0 else (s11 if i == 1 else s22)
+            else:
+                sij = s01 if i + j == 1 else (s02 if i + j == 2 else s12)
+            cij = c1 if i == j else 0.0
+            nij = cn * sij  # c N_ij
             for k in range(3):
                 for l in range(3):
-                    v = 0.0
-                    if i == j:
-                        v += c1 * bt[l, k]
-                    if i == l:
-                        v += c2 * bt[j, k]
-                    if j == l:
-                        v += c2 * bt[i, k]
-                    a[i, j, k, l] = v
-    if c != 0.0:
-        for i in range(3):
-            for j in range(3):
-                nij = s[i, j] / nrm
-                for l in range(3):
-                    for k in range(3):
-                        nb = 0.0
-                        for m in range(3):
-                            nb += s[l, m] * bt[m, k]
-                        a[i, j, k, l] -= c * nij * nb / nrm
+                    v = (cij * bt[l, k] + (c2 if i == l else 0.0) * bt[j, k]
+                         + (c2 if j == l else 0.0) * bt[i, k] - nij * nb[l, k])
+                    a[ia, i, j, k, l] = v
+                    a[ia, j, i, k, l] = v
     return dg
 
 
@@ -251,20 +290,12 @@ def _g_log(b1, b2):
     return math.log1p(d) / (b1 - b2)
 
 
-@_njit
-def _isochoric_point(Fi, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_tangent, bt, s, Q, beta,
+@_njit_inline
+def _isochoric_point(q, Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, ia, want_tangent, bt, s, Q, beta,
                      dtau):
-    """Isochoric (exponential map, logarithmic strain) model at one point."""
-    for i in range(3):
-        for j in range(i, 3):
-            acc = 0.0
-            for k in range(3):
-                row = 0.0
-                for m in range(3):
-                    row += Bn[k, m] * Fi[m, j]
-                acc += Fi[k, i] * row
-            bt[i, j] = acc
-            bt[j, i] = acc
+    """Isochoric (exponential map, logarithmic strain) model at point q (indexing as _seed_point)."""
+    bt[0, 0], bt[0, 1], bt[0, 2], bt[1, 1], bt[1, 2], bt[2, 2] = _predictor(Fu, Bn, q)  # (11)
+    bt[1, 0], bt[2, 0], bt[2, 1] = bt[0, 1], bt[0, 2], bt[1, 2]
     _eigh3(bt, beta, Q)
     # principal logarithmic elastic strains eps_A = -1/2 ln beta_A and Kirchhoff stresses
     e0, e1, e2 = -0.5 * math.log(beta[0]), -0.5 * math.log(beta[1]), -0.5 * math.log(beta[2])
@@ -278,7 +309,7 @@ def _isochoric_point(Fi, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_ta
     s[1, 1] = 2.0 * mu * (e1 - tr_e / 3.0)
     s[2, 2] = 2.0 * mu * (e2 - tr_e / 3.0)
     q_tr = math.sqrt(1.5 * (s[0, 0] ** 2 + s[1, 1] ** 2 + s[2, 2] ** 2))
-    dg, theta, c = _return_map(q_tr, eps_n, mu, law, hp, tol)
+    dg, theta, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
     fac = 1.5 * dg / q_tr if dg > 0.0 else 0.0  # n_A = 3/2 s_A / q_tr
     t_p = (p + (1.0 - 2.0 * mu * fac) * s[0, 0], p + (1.0 - 2.0 * mu * fac) * s[1, 1],
            p + (1.0 - 2.0 * mu * fac) * s[2, 2])
@@ -293,10 +324,10 @@ def _isochoric_point(Fi, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_ta
                 qq = Q[i, A] * Q[j, A]
                 vt += t_p[A] * qq
                 vb += bn[A] * qq
-            tau[i, j] = vt
-            tau[j, i] = vt
-            Bout[i, j] = vb
-            Bout[j, i] = vb
+            tau[q, i, j] = vt
+            tau[q, j, i] = vt
+            Bout[q, i, j] = vb
+            Bout[q, j, i] = vb
     if not want_tangent:
         return dg
     # tangent, built in the eigenbasis of bt for each unit l = e_k (x) e_l:
@@ -338,8 +369,8 @@ def _isochoric_point(Fi, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_ta
                         qa = Q[i, A]
                         for B in range(3):
                             v += qa * dtau[A, B] * Q[j, B]
-                    a[i, j, k, l] = v
-                    a[j, i, k, l] = v
+                    a[ia, i, j, k, l] = v
+                    a[ia, j, i, k, l] = v
     return dg
 
 
@@ -351,25 +382,25 @@ def update_points(model, Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, b
     Returns the number of points that yielded in this update.
     """
     n = Fu.shape[0]
-    Fi = np.empty((3, 3))
     bt = np.empty((3, 3))
     s = np.empty((3, 3))
     Q = np.empty((3, 3))
     beta = np.empty(3)
     dtau = np.empty((3, 3))
+    nb = np.empty((3, 3))
     nplastic = 0
-    for q in range(n):
-        _inverse3(Fu[q], Fi)
-        aq = a[q] if want_tangent else a[0]
-        if model == SEED:
-            dg = _seed_point(Fi, binv_n[q], eqps_n[q], lam, mu, law, hp, yield_tol, tau[q], binv[q], aq,
-                             want_tangent, bt, s)
-        else:
-            dg = _isochoric_point(Fi, binv_n[q], eqps_n[q], lam, mu, law, hp, yield_tol, tau[q], binv[q], aq,
-                                  want_tangent, bt, s, Q, beta, dtau)
-        eqps[q] = eqps_n[q] + dg
-        if dg > 0.0:
-            nplastic += 1
+    if model == SEED:  # one loop per model: each stays small enough to be optimised as a whole
+        for q in range(n):
+            dg = _seed_point(q, Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, binv,
+                             a, q if want_tangent else 0, want_tangent, bt, nb)
+            eqps[q] = eqps_n[q] + dg
+            nplastic += dg > 0.0
+    else:
+        for q in range(n):
+            dg = _isochoric_point(q, Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, binv,
+                                  a, q if want_tangent else 0, want_tangent, bt, s, Q, beta, dtau)
+            eqps[q] = eqps_n[q] + dg
+            nplastic += dg > 0.0
     return nplastic
 
 
