@@ -52,10 +52,16 @@ class QuadratureMap:
         else:
             self.QA, self.a = None, None
 
-        # qp dofmap: is it trivial (dof = cell*nq + q) on the owned cells?
-        dofs = self.QT.dofmap.list.array.reshape(-1, self.nq)[: self.n_owned]
-        self.trivial = bool(np.array_equal(dofs.reshape(-1), np.arange(self.n)))
-        self._qdofs = dofs.reshape(-1)           # block index of each owned qp
+        # qp dofmaps: trivial (dof = cell*nq + q) on the owned cells? Checked per space: the
+        # numbering of spaces with different block sizes need not agree in parallel.
+        def owned_blocks(space):
+            return np.asarray(space.dofmap.list.array.reshape(-1, self.nq)[: self.n_owned].reshape(-1))
+        self._qdofs = owned_blocks(self.QT)      # block index of each owned qp
+        self._qdofs_a = owned_blocks(self.QA) if self.has_tangent else self._qdofs
+        arange = np.arange(self.n)
+        self.trivial_tau = bool(np.array_equal(self._qdofs, arange))
+        self.trivial_a = bool(np.array_equal(self._qdofs_a, arange))
+        self.trivial = self.trivial_tau and self.trivial_a
 
         # compiled expression of Fu and its buffer
         self.Fu_expr = fem.Expression(Fu_expr, self.points)
@@ -66,13 +72,15 @@ class QuadratureMap:
         self.eqps = np.zeros(self.n)
         self.binv_trial = self.binv.copy()
         self.eqps_trial = self.eqps.copy()
-        if self.trivial:
-            self.tau_values = self.tau.x.array[: self.n * 9].reshape(self.n, 3, 3)
-            self.a_values = (self.a.x.array[: self.n * 81].reshape(self.n, 3, 3, 3, 3)
-                             if self.has_tangent else None)
+        # trivial dofmap: the material writes straight into the Functions' arrays (views)
+        self.tau_values = (self.tau.x.array[: self.n * 9].reshape(self.n, 3, 3) if self.trivial_tau
+                           else np.zeros((self.n, 3, 3)))
+        if not self.has_tangent:
+            self.a_values = None
+        elif self.trivial_a:
+            self.a_values = self.a.x.array[: self.n * 81].reshape(self.n, 3, 3, 3, 3)
         else:
-            self.tau_values = np.zeros((self.n, 3, 3))
-            self.a_values = np.zeros((self.n, 3, 3, 3, 3)) if self.has_tangent else None
+            self.a_values = np.zeros((self.n, 3, 3, 3, 3))
         self._cell_weights = None
         self._dg0 = None
 
@@ -87,24 +95,32 @@ class QuadratureMap:
         return self.Fu
 
     def update(self, tangent=True):
-        """Trial material update from the committed state; fills tau (and a if tangent)."""
+        """Trial material update from the committed state; fills tau (and a if tangent).
+
+        Raises MaterialUpdateError (on the ranks concerned only, after the collective writes)
+        if the stress or tangent is not finite.
+        """
         Fu = self.evaluate_Fu()
         tangent = tangent and self.has_tangent
         a = self.a_values if tangent else None
         self.material.update_into(Fu, self.binv, self.eqps, self.tau_values,
                                   self.binv_trial, self.eqps_trial, a)
-        if not np.isfinite(self.tau_values).all() or (tangent and not np.isfinite(a).all()):
+        bad = not np.isfinite(self.tau_values).all() or (tangent and not np.isfinite(a).all())
+        # scatter_forward is collective: write on every rank before raising (a rank-local raise
+        # here would deadlock the others)
+        self._write(self.tau, self.tau_values, 9, self._qdofs, self.trivial_tau)
+        if tangent:
+            self._write(self.a, a, 81, self._qdofs_a, self.trivial_a)
+        if bad:
             with np.errstate(all="ignore"):
                 detmin = float(np.nanmin(np.linalg.det(Fu))) if np.isfinite(Fu).all() else float("nan")
             raise MaterialUpdateError(
-                f"material update returned non-finite stress/tangent (min det Fu = {detmin:.3e})")
-        self._write(self.tau, self.tau_values, 9)
-        if tangent:
-            self._write(self.a, a, 81)
+                f"material update returned non-finite stress/tangent on rank {self.mesh.comm.rank} "
+                f"(min det Fu = {detmin:.3e})")
 
-    def _write(self, fun, values, bs):
-        if not self.trivial:
-            idx = (self._qdofs[:, None] * bs + np.arange(bs)).reshape(-1)
+    def _write(self, fun, values, bs, blocks, trivial):
+        if not trivial:
+            idx = (blocks[:, None] * bs + np.arange(bs)).reshape(-1)
             fun.x.array[idx] = values.reshape(-1)
         fun.x.scatter_forward()
 

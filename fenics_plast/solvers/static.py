@@ -206,21 +206,23 @@ class StaticSolver:
 
     def _residual(self, snes, x, b):
         self._set_state(x)
+        bad = False
         try:
             self.qmap.update(tangent=True)
-            self._bad_update = False
         except MaterialUpdateError as e:
-            self._bad_update = True
+            bad = True
             self._bad_message = str(e)
-            with b.localForm() as bl:
-                bl.set(np.nan)
-            return
+        # every rank assembles (collective); a failed update anywhere poisons the residual
         with b.localForm() as bl:
             bl.set(0.0)
         fpetsc.assemble_vector(b, self.R_form)
         fpetsc.apply_lifting(b, [self.J_form], bcs=[self.bcs], x0=[x], scale=-1.0)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         fpetsc.set_bc(b, self.bcs, x, -1.0)
+        self._bad_update = bad      # of the latest evaluation (the state SNES ends on)
+        if bad:
+            with b.localForm() as bl:
+                bl.set(np.nan)
 
     def _jacobian(self, snes, x, A, P):
         A.zeroEntries()
@@ -262,7 +264,11 @@ class StaticSolver:
         reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
         ksp_reason = self.snes.getKSP().getConvergedReason()
-        ok = reason > 0 and not self._bad_update and all(np.isfinite(self.norms))
+        bad = self.comm.allreduce(bool(self._bad_update), op=MPI.LOR)
+        if bad and not self._bad_update:
+            self._bad_message = "material update failed on another rank"
+        self._bad_update = bad
+        ok = reason > 0 and not bad and all(np.isfinite(self.norms))
         why = _REASONS.get(reason, str(reason))
         if self._bad_update:
             why = "material update failed: " + self._bad_message
