@@ -111,13 +111,20 @@ class StaticSolver:
     def _facets(self, facet_tags, tag):
         return facet_tags.find(tag) if np.isscalar(tag) else np.asarray(tag, dtype=np.int32)
 
-    def add_dirichlet(self, component, facet_tags, tag, value=0.0):
-        """u[component] = lam * value on facets (value: float or callable x -> array)."""
+    def add_dirichlet(self, component, facet_tags, tag, value=0.0, where=None):
+        """u[component] = lam * value on facets (value: float or callable x -> array).
+
+        ``where(X) -> bool mask`` optionally keeps only dofs at coordinates X (n, 3): use it to
+        avoid constraining a dof twice (e.g. a corner shared with a symmetry line).
+        """
         fdim = self.mesh.topology.dim - 1
         facets = self._facets(facet_tags, tag)
         Vsub = self.V.sub(component)
         Vc, _ = Vsub.collapse()
         dofs = fem.locate_dofs_topological((Vsub, Vc), fdim, facets)
+        if where is not None:
+            keep = np.asarray(where(Vc.tabulate_dof_coordinates()[dofs[1]]), dtype=bool)
+            dofs = [dofs[0][keep], dofs[1][keep]]
         g = fem.Function(Vc)
         if callable(value):
             g.interpolate(lambda x: np.asarray(value(x), dtype=float) * np.ones(x.shape[1]))
