@@ -208,6 +208,8 @@ class StaticSolver:
         self.norms.append(float(norm))
 
     def _set_state(self, x):
+        # SNES trial vectors (line search: x - s dx) carry stale ghost values; apply_lifting reads them
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         x.copy(self.w.vector)
         self.w.x.scatter_forward()
 
