@@ -330,8 +330,19 @@ def _run_scene(tmp, mu, law="quasi-coulomb", extra=()):
 @pytest.fixture(scope="module")
 def full_runs(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("punch")
-    return {key: _run_scene(tmp, *key) for key in
-            [(0.0,), (0.15,), (0.3,), (0.15, "coulomb")]}
+    runs = {key: _run_scene(tmp, *key) for key in [(0.0,), (0.15,), (0.15, "coulomb")]}
+    runs[(0.3,)] = _run_scene(tmp, 0.3, extra=["--set", "loading.travel=48"])  # past the neck
+    return runs
+
+
+@pytest.mark.slow
+def test_full_03_passes_its_force_maximum(full_runs):
+    rc, s, h, th = full_runs[(0.3,)]
+    assert rc == 0 and s["converged"], s.get("error")
+    # necks in a ring: the force peaks before the end of travel and then drops
+    assert 30.0 < s["punch_displacement_at_max_mm"] < 45.0
+    assert h["punch_force_kN"][-1] < 0.9 * s["max_punch_force_kN"]
+    assert s["max_punch_force_kN"] == pytest.approx(h["punch_force_kN"].max())
 
 
 @pytest.mark.slow
