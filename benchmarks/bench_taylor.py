@@ -105,7 +105,7 @@ def bench(args):
         "Fu eval": timed(q.evaluate_Fu),
         "material update": timed(lambda: s.material.update_into(q.Fu, q.binv, q.eqps, q.tau_values,
                                                                 q.binv_trial, q.eqps_trial, None)),
-        "tau scatter + finite check": timed(lambda: (q.tau_values.sum(), q._write(q.tau, q.tau_values, 9))),
+        "tau scatter + finite check": timed(lambda: (q.tau_values.sum(), q._write(q.tau, q.tau_values, 9, q._qdofs, q.trivial_tau))),
         "theta assembly": timed(s._update_theta) if s.theta is not None else 0.0,
         "f_int assembly": timed(assemble_f),
     }
