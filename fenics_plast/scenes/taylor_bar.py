@@ -17,24 +17,11 @@ from dolfinx import fem, io
 from mpi4py import MPI
 
 from fenics_plast.kinematics import Kinematics
-from fenics_plast.material import Hardening, Material
+from fenics_plast.material import Material
 from fenics_plast.meshing import bar_mesh
 from fenics_plast.solvers.explicit import ExplicitDynamics
 
 MJ_TO_J = 1e-3          # N mm -> J
-
-
-def material_from_scene(section):
-    """Material from a validated [material] section.
-
-    (Material.from_scene reads the hardening section with vars(), which a scene Section does not
-    support; this reads it with .keys() instead.)
-    """
-    hard = section.get("hardening", None)
-    hardening = None
-    if hard is not None:
-        hardening = Hardening(hard.law, **{k: hard[k] for k in hard.keys() if k != "law"})
-    return Material(section.E, section.nu, hardening, model=section.model)
 
 
 def build(scene, comm=MPI.COMM_WORLD, log=None):
@@ -45,7 +32,7 @@ def build(scene, comm=MPI.COMM_WORLD, log=None):
         comm, m.radius, m.length, m.cells_radial * refine, m.cells_axial * refine,
         imperfection=m.get("imperfection", 0.0) or 0.0)
     kin = Kinematics(mesh, m.geometry)
-    material = material_from_scene(scene.material)
+    material = Material.from_scene(scene.material)
     bcs = [(0, facet_tags.find(tag_ids["axis"])),        # radial velocity 0 on the axis
            (1, facet_tags.find(tag_ids["bottom"]))]      # axial velocity 0 on the impact face
     solver = ExplicitDynamics(mesh, kin, material, scene.material.density, bcs, element=m.element, log=log)
