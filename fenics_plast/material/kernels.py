@@ -207,78 +207,83 @@ def _return_map(q_tr, eps_n, mu, law, hp, yield_tol):
 
 
 @_njit
-def _seed_point(q, Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, ia, want_tangent, bt, nb):
-    """Seed model at point q: reads Fu[q], Bn[q] = binv_n, eps_n[q]; writes tau[q], Bout[q], a[ia].
+def _seed_points(Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_tangent, bt, nb, eqps):
+    """Seed model for all points: reads Fu, Bn = binv_n, eps_n; writes tau, Bout = binv, eqps, a.
 
-    The arrays are indexed rather than sliced (no views: no reference counting in the loop).
-
-    bt, nb (3,3) are scratch arrays for the tangent (trial b_e^-1 and N bt).
-    Symmetric tensors are held as their upper triangles in scalars (bt01 = bt10, ...).
+    The loop over points lives here, not in the caller: a call per point costs more than the
+    point's arithmetic (measured 3x).  Symmetric tensors are held as their upper triangles in
+    scalars (bt01 = bt10, ...); bt, nb (3,3) are scratch arrays for the tangent (trial b_e^-1 and
+    N bt).  Returns the number of points that yielded.
     """
-    # elastic predictor (11)
-    bt00, bt01, bt02, bt11, bt12, bt22 = _predictor(Fu, Bn, q)
-    # Almansi strain and trial Kirchhoff stress (7), (9): e = 1/2 (I - bt), tau = lam tr(e) I + 2 mu e
-    tr_e = 0.5 * (3.0 - bt00 - bt11 - bt22)
-    p = (lam + 2.0 * mu / 3.0) * tr_e  # Kirchhoff mean stress
-    s00, s11, s22 = -mu * bt00 + mu, -mu * bt11 + mu, -mu * bt22 + mu  # 2 mu e
-    s01, s02, s12 = -mu * bt01, -mu * bt02, -mu * bt12
-    mean = (s00 + s11 + s22) / 3.0
-    s00, s11, s22 = s00 - mean, s11 - mean, s22 - mean  # s = dev(2 mu e)
-    ss = s00 * s00 + s11 * s11 + s22 * s22 + 2.0 * (s01 * s01 + s02 * s02 + s12 * s12)  # s:s
-    q_tr = math.sqrt(1.5 * ss)
-    dg, theta, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
-    # plastic corrector (14): binv = bt + 2 dg n,  n = 3/2 s_tr/q_tr;  tau = tau_tr - 2 mu dg n
-    fac = 3.0 * dg / q_tr if dg > 0.0 else 0.0
-    t = 1.0 - mu * fac
-    Bout[q, 0, 0], Bout[q, 1, 1], Bout[q, 2, 2] = bt00 + fac * s00, bt11 + fac * s11, bt22 + fac * s22
-    Bout[q, 0, 1] = Bout[q, 1, 0] = bt01 + fac * s01
-    Bout[q, 0, 2] = Bout[q, 2, 0] = bt02 + fac * s02
-    Bout[q, 1, 2] = Bout[q, 2, 1] = bt12 + fac * s12
-    tau[q, 0, 0], tau[q, 1, 1], tau[q, 2, 2] = t * s00 + p, t * s11 + p, t * s22 + p
-    tau[q, 0, 1] = tau[q, 1, 0] = t * s01
-    tau[q, 0, 2] = tau[q, 2, 0] = t * s02
-    tau[q, 1, 2] = tau[q, 2, 1] = t * s12
-    if not want_tangent:
-        return dg
-    # a_ijkl = (kappa - 2 mu theta/3) d_ij bt_lk + mu theta (d_il bt_jk + d_jl bt_ik) - c N_ij (N bt)_lk
-    kap = lam + 2.0 * mu / 3.0
-    c1 = kap - 2.0 * mu * theta / 3.0
-    c2 = mu * theta
-    bt[0, 0], bt[1, 1], bt[2, 2] = bt00, bt11, bt22
-    bt[0, 1] = bt[1, 0] = bt01
-    bt[0, 2] = bt[2, 0] = bt02
-    bt[1, 2] = bt[2, 1] = bt12
-    # N = s/|s|, c N_ij = cn s_ij;  nb = N bt (not symmetric); both zero when elastic (c = 0)
-    cn = 0.0
-    if c != 0.0:
-        r = 1.0 / math.sqrt(ss)
-        cn = c * r
-        n00, n01, n02, n11, n12, n22 = s00 * r, s01 * r, s02 * r, s11 * r, s12 * r, s22 * r
-        for k in range(3):
-            nb[0, k] = n00 * bt[0, k] + n01 * bt[1, k] + n02 * bt[2, k]
-            nb[1, k] = n01 * bt[0, k] + n11 * bt[1, k] + n12 * bt[2, k]
-            nb[2, k] = n02 * bt[0, k] + n12 * bt[1, k] + n22 * bt[2, k]
-    else:
-        s00 = s01 = s02 = s11 = s12 = s22 = 0.0
-        for l in range(3):
+    nplastic = 0
+    for q in range(Fu.shape[0]):
+        ia = q if want_tangent else 0
+        # elastic predictor (11)
+        bt00, bt01, bt02, bt11, bt12, bt22 = _predictor(Fu, Bn, q)
+        # Almansi strain and trial Kirchhoff stress (7), (9): e = 1/2 (I - bt), tau = lam tr(e) I + 2 mu e
+        tr_e = 0.5 * (3.0 - bt00 - bt11 - bt22)
+        p = (lam + 2.0 * mu / 3.0) * tr_e  # Kirchhoff mean stress
+        s00, s11, s22 = -mu * bt00 + mu, -mu * bt11 + mu, -mu * bt22 + mu  # 2 mu e
+        s01, s02, s12 = -mu * bt01, -mu * bt02, -mu * bt12
+        mean = (s00 + s11 + s22) / 3.0
+        s00, s11, s22 = s00 - mean, s11 - mean, s22 - mean  # s = dev(2 mu e)
+        ss = s00 * s00 + s11 * s11 + s22 * s22 + 2.0 * (s01 * s01 + s02 * s02 + s12 * s12)  # s:s
+        q_tr = math.sqrt(1.5 * ss)
+        dg, theta, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
+        eqps[q] = eps_n[q] + dg
+        nplastic += dg > 0.0
+        # plastic corrector (14): binv = bt + 2 dg n,  n = 3/2 s_tr/q_tr;  tau = tau_tr - 2 mu dg n
+        fac = 3.0 * dg / q_tr if dg > 0.0 else 0.0
+        t = 1.0 - mu * fac
+        Bout[q, 0, 0], Bout[q, 1, 1], Bout[q, 2, 2] = bt00 + fac * s00, bt11 + fac * s11, bt22 + fac * s22
+        Bout[q, 0, 1] = Bout[q, 1, 0] = bt01 + fac * s01
+        Bout[q, 0, 2] = Bout[q, 2, 0] = bt02 + fac * s02
+        Bout[q, 1, 2] = Bout[q, 2, 1] = bt12 + fac * s12
+        tau[q, 0, 0], tau[q, 1, 1], tau[q, 2, 2] = t * s00 + p, t * s11 + p, t * s22 + p
+        tau[q, 0, 1] = tau[q, 1, 0] = t * s01
+        tau[q, 0, 2] = tau[q, 2, 0] = t * s02
+        tau[q, 1, 2] = tau[q, 2, 1] = t * s12
+        if not want_tangent:
+            continue
+        # a_ijkl = (kappa - 2 mu theta/3) d_ij bt_lk + mu theta (d_il bt_jk + d_jl bt_ik) - c N_ij (N bt)_lk
+        kap = lam + 2.0 * mu / 3.0
+        c1 = kap - 2.0 * mu * theta / 3.0
+        c2 = mu * theta
+        bt[0, 0], bt[1, 1], bt[2, 2] = bt00, bt11, bt22
+        bt[0, 1] = bt[1, 0] = bt01
+        bt[0, 2] = bt[2, 0] = bt02
+        bt[1, 2] = bt[2, 1] = bt12
+        # N = s/|s|, c N_ij = cn s_ij;  nb = N bt (not symmetric); both zero when elastic (c = 0)
+        cn = 0.0
+        if c != 0.0:
+            r = 1.0 / math.sqrt(ss)
+            cn = c * r
+            n00, n01, n02, n11, n12, n22 = s00 * r, s01 * r, s02 * r, s11 * r, s12 * r, s22 * r
             for k in range(3):
-                nb[l, k] = 0.0
-    # one (i, j) row of 9 entries at a time, i <= j; the tangent is symmetric in (i, j)
-    for i in range(3):
-        for j in range(i, 3):
-            if i == j:
-                sij = s00 if i == 0 else (s11 if i == 1 else s22)
-            else:
-                sij = s01 if i + j == 1 else (s02 if i + j == 2 else s12)
-            cij = c1 if i == j else 0.0
-            nij = cn * sij  # c N_ij
-            for k in range(3):
-                for l in range(3):
-                    v = (cij * bt[l, k] + (c2 if i == l else 0.0) * bt[j, k]
-                         + (c2 if j == l else 0.0) * bt[i, k] - nij * nb[l, k])
-                    a[ia, i, j, k, l] = v
-                    a[ia, j, i, k, l] = v
-    return dg
+                nb[0, k] = n00 * bt[0, k] + n01 * bt[1, k] + n02 * bt[2, k]
+                nb[1, k] = n01 * bt[0, k] + n11 * bt[1, k] + n12 * bt[2, k]
+                nb[2, k] = n02 * bt[0, k] + n12 * bt[1, k] + n22 * bt[2, k]
+        else:
+            s00 = s01 = s02 = s11 = s12 = s22 = 0.0
+            for l in range(3):
+                for k in range(3):
+                    nb[l, k] = 0.0
+        # one (i, j) row of 9 entries at a time, i <= j; the tangent is symmetric in (i, j)
+        for i in range(3):
+            for j in range(i, 3):
+                if i == j:
+                    sij = s00 if i == 0 else (s11 if i == 1 else s22)
+                else:
+                    sij = s01 if i + j == 1 else (s02 if i + j == 2 else s12)
+                cij = c1 if i == j else 0.0
+                nij = cn * sij  # c N_ij
+                for k in range(3):
+                    for l in range(3):
+                        v = (cij * bt[l, k] + (c2 if i == l else 0.0) * bt[j, k]
+                             + (c2 if j == l else 0.0) * bt[i, k] - nij * nb[l, k])
+                        a[ia, i, j, k, l] = v
+                        a[ia, j, i, k, l] = v
+    return nplastic
 
 
 @_njit
@@ -291,87 +296,91 @@ def _g_log(b1, b2):
 
 
 @_njit
-def _isochoric_point(q, Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, ia, want_tangent, bt, s, Q, beta,
-                     dtau):
-    """Isochoric (exponential map, logarithmic strain) model at point q (indexing as _seed_point)."""
-    bt[0, 0], bt[0, 1], bt[0, 2], bt[1, 1], bt[1, 2], bt[2, 2] = _predictor(Fu, Bn, q)  # (11)
-    bt[1, 0], bt[2, 0], bt[2, 1] = bt[0, 1], bt[0, 2], bt[1, 2]
-    _eigh3(bt, beta, Q)
-    # principal logarithmic elastic strains eps_A = -1/2 ln beta_A and Kirchhoff stresses
-    e0, e1, e2 = -0.5 * math.log(beta[0]), -0.5 * math.log(beta[1]), -0.5 * math.log(beta[2])
-    tr_e = e0 + e1 + e2
-    p = (lam + 2.0 * mu / 3.0) * tr_e
-    # principal trial deviator, stored on the diagonal of s
-    for i in range(3):
-        for j in range(3):
-            s[i, j] = 0.0
-    s[0, 0] = 2.0 * mu * (e0 - tr_e / 3.0)
-    s[1, 1] = 2.0 * mu * (e1 - tr_e / 3.0)
-    s[2, 2] = 2.0 * mu * (e2 - tr_e / 3.0)
-    q_tr = math.sqrt(1.5 * (s[0, 0] ** 2 + s[1, 1] ** 2 + s[2, 2] ** 2))
-    dg, theta, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
-    fac = 1.5 * dg / q_tr if dg > 0.0 else 0.0  # n_A = 3/2 s_A / q_tr
-    t_p = (p + (1.0 - 2.0 * mu * fac) * s[0, 0], p + (1.0 - 2.0 * mu * fac) * s[1, 1],
-           p + (1.0 - 2.0 * mu * fac) * s[2, 2])
-    # exponential map: eps_A <- eps_A - dg n_A ;  binv = Q diag(exp(-2 eps_A)) Q^T
-    bn = (math.exp(-2.0 * (e0 - fac * s[0, 0])), math.exp(-2.0 * (e1 - fac * s[1, 1])),
-          math.exp(-2.0 * (e2 - fac * s[2, 2])))
-    for i in range(3):
-        for j in range(i, 3):
-            vt = 0.0
-            vb = 0.0
-            for A in range(3):
-                qq = Q[i, A] * Q[j, A]
-                vt += t_p[A] * qq
-                vb += bn[A] * qq
-            tau[q, i, j] = vt
-            tau[q, j, i] = vt
-            Bout[q, i, j] = vb
-            Bout[q, j, i] = vb
-    if not want_tangent:
-        return dg
-    # tangent, built in the eigenbasis of bt for each unit l = e_k (x) e_l:
-    #   delta eps'_AA = Q_kA Q_lA ;  delta eps'_AB = g_AB (beta_B Q_lA Q_kB + beta_A Q_kA Q_lB)/2
-    #   delta tau' = D' delta eps' ;  a_ijkl = (Q delta tau' Q^T)_ij
-    kap = lam + 2.0 * mu / 3.0
-    nrm = math.sqrt(s[0, 0] ** 2 + s[1, 1] ** 2 + s[2, 2] ** 2)
-    N0 = s[0, 0] / nrm if nrm > 0.0 else 0.0
-    N1 = s[1, 1] / nrm if nrm > 0.0 else 0.0
-    N2 = s[2, 2] / nrm if nrm > 0.0 else 0.0
-    g01 = _g_log(beta[0], beta[1])
-    g02 = _g_log(beta[0], beta[2])
-    g12 = _g_log(beta[1], beta[2])
-    for k in range(3):
-        for l in range(3):
-            d0 = Q[k, 0] * Q[l, 0]
-            d1 = Q[k, 1] * Q[l, 1]
-            d2 = Q[k, 2] * Q[l, 2]
-            tr = d0 + d1 + d2
-            nd = c * (N0 * d0 + N1 * d1 + N2 * d2)
-            vol = kap * tr - 2.0 * mu * theta * tr / 3.0
-            dtau[0, 0] = vol + 2.0 * mu * theta * d0 - nd * N0
-            dtau[1, 1] = vol + 2.0 * mu * theta * d1 - nd * N1
-            dtau[2, 2] = vol + 2.0 * mu * theta * d2 - nd * N2
-            # shear: 2 mu theta delta eps'_AB ; the symmetric off-diagonal pair shares the value
-            v01 = mu * theta * g01 * (beta[1] * Q[l, 0] * Q[k, 1] + beta[0] * Q[k, 0] * Q[l, 1])
-            v02 = mu * theta * g02 * (beta[2] * Q[l, 0] * Q[k, 2] + beta[0] * Q[k, 0] * Q[l, 2])
-            v12 = mu * theta * g12 * (beta[2] * Q[l, 1] * Q[k, 2] + beta[1] * Q[k, 1] * Q[l, 2])
-            dtau[0, 1] = v01
-            dtau[1, 0] = v01
-            dtau[0, 2] = v02
-            dtau[2, 0] = v02
-            dtau[1, 2] = v12
-            dtau[2, 1] = v12
-            for i in range(3):
-                for j in range(i, 3):
-                    v = 0.0
-                    for A in range(3):
-                        qa = Q[i, A]
-                        for B in range(3):
-                            v += qa * dtau[A, B] * Q[j, B]
-                    a[ia, i, j, k, l] = v
-                    a[ia, j, i, k, l] = v
-    return dg
+def _isochoric_points(Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_tangent, bt, s, Q, beta, dtau, eqps):
+    """Isochoric (exponential map, logarithmic strain) model for all points (as _seed_points)."""
+    nplastic = 0
+    for q in range(Fu.shape[0]):
+        ia = q if want_tangent else 0
+        bt[0, 0], bt[0, 1], bt[0, 2], bt[1, 1], bt[1, 2], bt[2, 2] = _predictor(Fu, Bn, q)  # (11)
+        bt[1, 0], bt[2, 0], bt[2, 1] = bt[0, 1], bt[0, 2], bt[1, 2]
+        _eigh3(bt, beta, Q)
+        # principal logarithmic elastic strains eps_A = -1/2 ln beta_A and Kirchhoff stresses
+        e0, e1, e2 = -0.5 * math.log(beta[0]), -0.5 * math.log(beta[1]), -0.5 * math.log(beta[2])
+        tr_e = e0 + e1 + e2
+        p = (lam + 2.0 * mu / 3.0) * tr_e
+        # principal trial deviator, stored on the diagonal of s
+        for i in range(3):
+            for j in range(3):
+                s[i, j] = 0.0
+        s[0, 0] = 2.0 * mu * (e0 - tr_e / 3.0)
+        s[1, 1] = 2.0 * mu * (e1 - tr_e / 3.0)
+        s[2, 2] = 2.0 * mu * (e2 - tr_e / 3.0)
+        q_tr = math.sqrt(1.5 * (s[0, 0] ** 2 + s[1, 1] ** 2 + s[2, 2] ** 2))
+        dg, theta, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
+        eqps[q] = eps_n[q] + dg
+        nplastic += dg > 0.0
+        fac = 1.5 * dg / q_tr if dg > 0.0 else 0.0  # n_A = 3/2 s_A / q_tr
+        t_p = (p + (1.0 - 2.0 * mu * fac) * s[0, 0], p + (1.0 - 2.0 * mu * fac) * s[1, 1],
+               p + (1.0 - 2.0 * mu * fac) * s[2, 2])
+        # exponential map: eps_A <- eps_A - dg n_A ;  binv = Q diag(exp(-2 eps_A)) Q^T
+        bn = (math.exp(-2.0 * (e0 - fac * s[0, 0])), math.exp(-2.0 * (e1 - fac * s[1, 1])),
+              math.exp(-2.0 * (e2 - fac * s[2, 2])))
+        for i in range(3):
+            for j in range(i, 3):
+                vt = 0.0
+                vb = 0.0
+                for A in range(3):
+                    qq = Q[i, A] * Q[j, A]
+                    vt += t_p[A] * qq
+                    vb += bn[A] * qq
+                tau[q, i, j] = vt
+                tau[q, j, i] = vt
+                Bout[q, i, j] = vb
+                Bout[q, j, i] = vb
+        if not want_tangent:
+            continue
+        # tangent, built in the eigenbasis of bt for each unit l = e_k (x) e_l:
+        #   delta eps'_AA = Q_kA Q_lA ;  delta eps'_AB = g_AB (beta_B Q_lA Q_kB + beta_A Q_kA Q_lB)/2
+        #   delta tau' = D' delta eps' ;  a_ijkl = (Q delta tau' Q^T)_ij
+        kap = lam + 2.0 * mu / 3.0
+        nrm = math.sqrt(s[0, 0] ** 2 + s[1, 1] ** 2 + s[2, 2] ** 2)
+        N0 = s[0, 0] / nrm if nrm > 0.0 else 0.0
+        N1 = s[1, 1] / nrm if nrm > 0.0 else 0.0
+        N2 = s[2, 2] / nrm if nrm > 0.0 else 0.0
+        g01 = _g_log(beta[0], beta[1])
+        g02 = _g_log(beta[0], beta[2])
+        g12 = _g_log(beta[1], beta[2])
+        for k in range(3):
+            for l in range(3):
+                d0 = Q[k, 0] * Q[l, 0]
+                d1 = Q[k, 1] * Q[l, 1]
+                d2 = Q[k, 2] * Q[l, 2]
+                tr = d0 + d1 + d2
+                nd = c * (N0 * d0 + N1 * d1 + N2 * d2)
+                vol = kap * tr - 2.0 * mu * theta * tr / 3.0
+                dtau[0, 0] = vol + 2.0 * mu * theta * d0 - nd * N0
+                dtau[1, 1] = vol + 2.0 * mu * theta * d1 - nd * N1
+                dtau[2, 2] = vol + 2.0 * mu * theta * d2 - nd * N2
+                # shear: 2 mu theta delta eps'_AB ; the symmetric off-diagonal pair shares the value
+                v01 = mu * theta * g01 * (beta[1] * Q[l, 0] * Q[k, 1] + beta[0] * Q[k, 0] * Q[l, 1])
+                v02 = mu * theta * g02 * (beta[2] * Q[l, 0] * Q[k, 2] + beta[0] * Q[k, 0] * Q[l, 2])
+                v12 = mu * theta * g12 * (beta[2] * Q[l, 1] * Q[k, 2] + beta[1] * Q[k, 1] * Q[l, 2])
+                dtau[0, 1] = v01
+                dtau[1, 0] = v01
+                dtau[0, 2] = v02
+                dtau[2, 0] = v02
+                dtau[1, 2] = v12
+                dtau[2, 1] = v12
+                for i in range(3):
+                    for j in range(i, 3):
+                        v = 0.0
+                        for A in range(3):
+                            qa = Q[i, A]
+                            for B in range(3):
+                                v += qa * dtau[A, B] * Q[j, B]
+                        a[ia, i, j, k, l] = v
+                        a[ia, j, i, k, l] = v
+    return nplastic
 
 
 @_njit
@@ -388,20 +397,11 @@ def update_points(model, Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, b
     beta = np.empty(3)
     dtau = np.empty((3, 3))
     nb = np.empty((3, 3))
-    nplastic = 0
-    if model == SEED:  # one loop per model: each stays small enough to be optimised as a whole
-        for q in range(n):
-            dg = _seed_point(q, Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, binv,
-                             a, q if want_tangent else 0, want_tangent, bt, nb)
-            eqps[q] = eqps_n[q] + dg
-            nplastic += dg > 0.0
-    else:
-        for q in range(n):
-            dg = _isochoric_point(q, Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, binv,
-                                  a, q if want_tangent else 0, want_tangent, bt, s, Q, beta, dtau)
-            eqps[q] = eqps_n[q] + dg
-            nplastic += dg > 0.0
-    return nplastic
+    if model == SEED:
+        return _seed_points(Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, binv, a, want_tangent,
+                            bt, nb, eqps)
+    return _isochoric_points(Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, binv, a, want_tangent,
+                             bt, s, Q, beta, dtau, eqps)
 
 
 @_njit
