@@ -19,6 +19,18 @@ ROOT = Path(__file__).resolve().parent.parent
 COMM = MPI.COMM_WORLD
 
 
+def necking_bar(cells_radial, cells_axial, end_scale, **solver_options):
+    """Simo's necking bar (steel, Voce hardening), half length 26.667 mm, 1.8 % imperfection, with the
+    end displacement of the demo scaled by end_scale; returns (solver, info)."""
+    mat = Material(206.9e3, 0.29, Hardening("voce", yield_stress=450.0, Q=265.0, b=16.93, modulus=129.24),
+                   model="isochoric")
+    s, info = build_bar(COMM, 6.413, 26.667, cells_radial, cells_axial, 0.018, mat, element="q1p0",
+                        solver_options=solver_options, verbose=False)
+    for bc, g, g0 in s._bcs:
+        g0 *= end_scale
+    return s, info
+
+
 def uniaxial_reference(material, stretches):
     """Material-point uniaxial Kirchhoff stress tau_zz along the given axial stretch path.
 
@@ -95,12 +107,7 @@ def test_newton_quadratic_in_plastic_increment():
     (the quadratic constant of this problem is about 2e-5 to 1e-4), and the best final convergence
     order log(r_{k+1}/r_k) / log(r_k/r_{k-1}) of the increments is >= 1.8.
     """
-    mat = Material(206.9e3, 0.29, Hardening("voce", yield_stress=450.0, Q=265.0, b=16.93, modulus=129.24),
-                   model="isochoric")
-    s, info = build_bar(COMM, 6.413, 26.667, 4, 12, 0.018, mat, element="q1p0",
-                        solver_options=dict(rtol=1e-11, atol=1e-9, max_iterations=30), verbose=False)
-    for bc, g, g0 in s._bcs:
-        g0 *= 3.0
+    s, info = necking_bar(4, 12, 3.0, rtol=1e-11, atol=1e-9, max_iterations=30)
     s.run(increments=5, max_increment=0.2, lam_end=0.6)
     floor = 1e-12 * max(max(rec["norms"]) for rec in s.increments)
     orders, checked = [], 0
@@ -144,12 +151,7 @@ def test_serial_and_mpi_agree(tmp_path, case):
 
 def test_too_large_first_increment_is_cut_back():
     """(e) One increment of the whole (strongly plastic) load is cut back and the run finishes."""
-    mat = Material(206.9e3, 0.29, Hardening("voce", yield_stress=450.0, Q=265.0, b=16.93, modulus=129.24),
-                   model="isochoric")
-    s, info = build_bar(COMM, 6.413, 26.667, 4, 12, 0.018, mat, element="q1p0",
-                        solver_options=dict(max_iterations=8), verbose=False)
-    for bc, g, g0 in s._bcs:
-        g0 *= 7.0
+    s, info = necking_bar(4, 12, 7.0, max_iterations=8)
     assert s.run(increments=1, max_increment=1.0, min_increment=1e-4)
     assert len(s.cutbacks) >= 1
     assert s.cutbacks[0]["load_factor"] == pytest.approx(1.0)
@@ -159,12 +161,7 @@ def test_too_large_first_increment_is_cut_back():
 
 def test_min_increment_raises_run_error():
     from fenics_plast.errors import RunError
-    mat = Material(206.9e3, 0.29, Hardening("voce", yield_stress=450.0, Q=265.0, b=16.93, modulus=129.24),
-                   model="isochoric")
-    s, info = build_bar(COMM, 6.413, 26.667, 2, 6, 0.018, mat, element="q1p0",
-                        solver_options=dict(max_iterations=2), verbose=False)
-    for bc, g, g0 in s._bcs:
-        g0 *= 7.0
+    s, info = necking_bar(2, 6, 7.0, max_iterations=2)
     with pytest.raises(RunError, match="no convergence"):
         s.run(increments=1, max_increment=1.0, min_increment=0.2)
 
