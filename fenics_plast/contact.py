@@ -416,11 +416,6 @@ class PenaltyContact:
         self.w_c.x.array[:] = self.solver.w.x.array
         self.lam_c.value = self.solver.lam
 
-    def callback(self, solver=None):
-        """For ``StaticSolver.run(callback=...)``: commit, never stop."""
-        self.commit()
-        return False
-
     # -- diagnostics -------------------------------------------------------------------------
     def nodal_gaps(self, pair):
         """Gaps at the owned nodes of the pair's facets (current state), numpy (n,)."""

@@ -112,7 +112,3 @@ class Kinematics:
         F = self.F(u)
         lu = ufl.dot(self.grad(du), ufl.inv(F))
         return (dtheta - ufl.det(F) * ufl.tr(lu)) * q * self.weight * self.dx
-
-    def volume(self):
-        """UFL form of the (weighted) reference volume: int w dV."""
-        return ufl.as_ufl(self.weight) * self.dx

@@ -44,7 +44,6 @@ class QuadratureMap:
 
         kw = dict(degree=degree, quad_scheme="default")
         self.QT = fem.FunctionSpace(mesh, ufl.TensorElement("Quadrature", cell, shape=(3, 3), **kw))
-        self.Q = fem.FunctionSpace(mesh, ufl.FiniteElement("Quadrature", cell, **kw))
         self.tau = fem.Function(self.QT, name="tau")
         if self.has_tangent:
             self.QA = fem.FunctionSpace(mesh, ufl.TensorElement("Quadrature", cell, shape=(9, 9), **kw))
@@ -127,9 +126,6 @@ class QuadratureMap:
     def commit(self):
         self.binv[:] = self.binv_trial
         self.eqps[:] = self.eqps_trial
-
-    def restore(self):
-        """Nothing to do: trial states are always recomputed from the committed state."""
 
     # -- output ----------------------------------------------------------------------------
     def _weights(self):

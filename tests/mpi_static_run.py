@@ -7,7 +7,6 @@ Writes JSON {"reactions": [...], "nodes": {"x,y": [u_x, u_y]}} to argv[1].
 import json
 import sys
 
-import numpy as np
 from mpi4py import MPI
 
 from fenics_plast.material import Hardening, Material

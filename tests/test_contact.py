@@ -15,13 +15,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import ufl
 from dolfinx import fem
 from dolfinx import mesh as dm
 import dolfinx.fem.petsc as fpetsc
 from mpi4py import MPI
 
-from fenics_plast.contact import FlatWall, PenaltyContact, NODAL_RULE, default_penalty
+from fenics_plast.contact import FlatWall, PenaltyContact, default_penalty
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Hardening, Material
 from fenics_plast.solvers.static import StaticSolver

@@ -42,12 +42,6 @@ from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 _QUAD_CYCLE = np.array([0, 1, 3, 2])
 
 
-def wave_speed(material, density):
-    """Dilatational wave speed sqrt((lambda + 2 mu) / rho) [mm/s]."""
-    lam, mu = material.lame
-    return math.sqrt((lam + 2.0 * mu) / density)
-
-
 @numba.njit(cache=True)
 def _quad_min_size(x, cell_dofs, out):
     for c in range(cell_dofs.shape[0]):
@@ -172,7 +166,7 @@ class ExplicitDynamics:
         self._cell_dofs = np.ascontiguousarray(cd[:, _QUAD_CYCLE], dtype=np.int64)
         self._xbuf = np.empty_like(self._X)
         self._hbuf = np.empty(self.n_cells_own)
-        self.c = wave_speed(material, self.density)
+        self.c = material.wave_speed(self.density)
 
         # quadrature weights w |detJ| q_w (reference configuration) for energy integrals
         we = fem.Expression(ufl.as_ufl(kin.weight) * abs(ufl.JacobianDeterminant(mesh)), self.qmap.points)

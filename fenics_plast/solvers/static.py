@@ -23,13 +23,7 @@ from petsc4py import PETSc
 
 from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 
-try:
-    from fenics_plast.errors import RunError
-except ImportError:  # pragma: no cover
-    class RunError(RuntimeError):
-        def __init__(self, message, results=None):
-            super().__init__(message)
-            self.results = dict(results or {})
+from fenics_plast.errors import RunError
 
 _prefix_counter = itertools.count()
 
@@ -310,7 +304,6 @@ class StaticSolver:
     def restore(self):
         self.w.x.array[:] = self.w_n.x.array
         self.set_load(self.lam_converged)
-        self.qmap.restore()
 
     lam_converged = 0.0
 
@@ -393,12 +386,6 @@ class StaticSolver:
         """Total reaction (sum of R_u over the given owned dofs, all ranks)."""
         local = float(np.sum(self.internal_force()[dofs]))
         return self.comm.allreduce(local, op=MPI.SUM)
-
-    def displacement(self):
-        """Collapsed displacement Function (copy)."""
-        if self.mixed:
-            return self.w.sub(0).collapse()
-        return self.w
 
     def displacement_function(self):
         """A persistent CG1 Function named "displacement" holding the current u (for XDMF)."""
