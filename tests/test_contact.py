@@ -60,7 +60,6 @@ def block(law, mu=MU, sx=0.05, nx=4, ny=2, path=None):
 
 
 def run_block(law, sx=0.05, increments=10, max_increment=0.1, extra=None, **kw):
-    mu = kw.get("mu", MU)
     """Run and record per increment: forces, status BEFORE commit, norms, normal force at the
     previous commit (Quasi-Coulomb bound)."""
     s, c, pair = block(law, sx=sx, **kw)
@@ -141,10 +140,6 @@ def test_block_sticks_below_the_limit(law):
         pytest.skip("nodal comparison in serial")
     sx = 0.002
     snap = {}
-
-    def grab(sol, c, pair):
-        return {}
-
     s, c, pair = block(law, sx=sx, mu=0.6)
     rec = []
 
@@ -212,11 +207,10 @@ def test_jacobian_symmetry(law):
 @pytest.mark.parametrize("law", ["coulomb", "quasi-coulomb"])
 def test_newton_quadratic_in_stick_and_slip(law):
     s, c, pair, rec = run_block(law, sx=0.2, increments=10, max_increment=0.1, mu=0.6)
-    stick = [r for r in rec if r["slip"] == 0 and r["lam"] > 0.51]
+    stick = [r for r in rec if r["contact"] > 0 and r["slip"] == 0]   # pressing down (lam <= 0.5)
     slip = [r for r in rec if r["slip"] == r["contact"] == 5]
-    compress = [r for r in rec if r["lam"] <= 0.5 + 1e-12 and r["slip"] == 0]
-    assert slip and (stick or compress)
-    for r in slip + stick + compress:
+    assert slip and stick
+    for r in slip + stick:
         n = r["norms"]
         if len(n) < 3:
             continue
