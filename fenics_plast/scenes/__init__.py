@@ -17,6 +17,12 @@ RUNNERS: dict[str, str] = {
 }
 
 
+def newton_options(solver_section) -> dict:
+    """StaticSolver keyword arguments from a validated [solver] section of a static scene."""
+    sv = solver_section
+    return dict(rtol=sv.rtol, atol=sv.atol, max_iterations=sv.max_iterations, linesearch=sv.linesearch)
+
+
 class RunnerNotFound(LookupError):
     """No runner can be imported for a scene kind."""
 

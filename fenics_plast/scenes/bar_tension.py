@@ -16,6 +16,7 @@ from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Material
 from fenics_plast.meshing import bar_mesh
 from fenics_plast.quadrature import pressure, von_mises
+from fenics_plast.scenes import newton_options
 from fenics_plast.solvers.static import StaticSolver
 
 
@@ -48,11 +49,11 @@ def neck_radius(solver, radius, half_length, imperfection):
 def run(scene, output) -> dict:
     comm = MPI.COMM_WORLD
     m, sv, ld = scene.mesh, scene.solver, scene.loading
-    refine = int(getattr(m, "refine", 1))
+    refine = int(m.refine)
     material = Material.from_scene(scene.material)
     R, half = m.radius, 0.5 * m.length
     imp = m.imperfection
-    opts = dict(rtol=sv.rtol, atol=sv.atol, max_iterations=sv.max_iterations, linesearch=sv.linesearch)
+    opts = newton_options(sv)
     t0 = time.perf_counter()
     s, info = build(comm, R, half, m.cells_radial * refine, m.cells_axial * refine, imp, material,
                     element=m.element, solver_options=opts, log=output.log)

@@ -30,6 +30,7 @@ from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Material
 from fenics_plast.meshing import blank_mesh
 from fenics_plast.quadrature import von_mises
+from fenics_plast.scenes import newton_options
 from fenics_plast.solvers.static import StaticSolver
 
 THICKNESS_TRAVEL_MM = 20.0
@@ -100,13 +101,13 @@ def run(scene, output) -> dict:
     comm = MPI.COMM_WORLD
     m, sv, ld, tl = scene.mesh, scene.solver, scene.loading, scene.tools
     ct = scene.contact
-    refine = int(getattr(m, "refine", 1))
+    refine = int(m.refine)
     material = Material.from_scene(scene.material)
     friction = ct.friction if ct is not None else 0.0
     law = ct.law if ct is not None else "quasi-coulomb"
     penalty = ct.penalty if ct is not None else None
     tpen = ct.tangential_penalty if ct is not None else None
-    opts = dict(rtol=sv.rtol, atol=sv.atol, max_iterations=sv.max_iterations, linesearch=sv.linesearch)
+    opts = newton_options(sv)
     t0 = time.perf_counter()
     travel = ld.travel
     s, c, info = build(comm, blank_radius=m.blank_radius, thickness=m.thickness,

@@ -25,6 +25,7 @@ from fenics_plast.errors import RunError
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Material
 from fenics_plast.meshing import ring_mesh
+from fenics_plast.scenes import newton_options
 from fenics_plast.solvers.static import StaticSolver
 
 
@@ -92,11 +93,11 @@ def solve(comm, a, b, cells_radial, cells_circumferential, material, element="q1
 def run(scene, output) -> dict:
     comm = MPI.COMM_WORLD
     m, sv = scene.mesh, scene.solver
-    refine = int(getattr(m, "refine", 1))
+    refine = int(m.refine)
     if m.geometry != "plane_strain":
         output.log("thick_cylinder: the ring is modelled in plane strain (mesh.geometry ignored)")
     material = Material.from_scene(scene.material)
-    opts = dict(rtol=sv.rtol, atol=sv.atol, max_iterations=sv.max_iterations, linesearch=sv.linesearch)
+    opts = newton_options(sv)
     t0 = time.perf_counter()
 
     def on_increment(solver, d, p):
