@@ -87,7 +87,10 @@ def cmd_run(args) -> int:
     t0 = time.perf_counter()
     status = EXIT_OK
     try:
-        results = runner(scene, output)
+        try:
+            results = runner(scene, output)
+        finally:
+            output.end_progress()       # the bar's line ends before any error message
         if results is None:
             results = {}
         summary.update(results)
@@ -239,12 +242,32 @@ def cmd_point(args) -> int:
 
 
 # ----------------------------------------------------------------------------------------------
+# plot
+
+
+def cmd_plot(args) -> int:
+    from .plots import PlotError, draw
+    try:
+        paths = draw(args.dir)
+    except PlotError as e:
+        _error(str(e))
+        return EXIT_USAGE
+    _say(f"fenics-plast plot: {len(paths)} figure(s): {', '.join(p.name for p in paths)} in {args.dir}")
+    return EXIT_OK
+
+
+# ----------------------------------------------------------------------------------------------
 # keys
 
 
 def cmd_keys(args) -> int:
     sys.stdout.write(keys_markdown())
     return EXIT_OK
+
+
+def cmd_study(args) -> int:
+    from .study import study_from_args
+    return study_from_args(args)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -281,6 +304,20 @@ def build_parser() -> argparse.ArgumentParser:
 
     k = sub.add_parser("keys", help="print the scene key reference (docs/SCENE_KEYS.md)")
     k.set_defaults(func=cmd_keys)
+
+    pl = sub.add_parser("plot", help="redraw the PNG plots of a results folder",
+                        description="Redraws the scene kind's PNGs in DIR from its history.csv (and other "
+                                    "CSV files), reading the kind from summary.json.")
+    pl.add_argument("dir", help="results folder of `fenics-plast run` (summary.json, history.csv)")
+    pl.set_defaults(func=cmd_plot)
+
+    from .study import add_study_arguments
+    st = sub.add_parser("study", help="run combinations of scene-key overrides; tabulate cost and error",
+                        description="Runs every combination of the --vary values (one process each) and "
+                                    "writes study.csv, study.md and study.png (error against wall time) "
+                                    "into --out (default results/study_<scene name>).")
+    add_study_arguments(st)
+    st.set_defaults(func=cmd_study)
     return p
 
 

@@ -1,0 +1,196 @@
+"""Parameter studies (fenics_plast.study, ``fenics-plast study``).
+
+(a) The Richardson extrapolation recovers the exact order and limit of manufactured sequences
+(constant and varying refinement ratio) and refuses non-monotone ones; (b) the references of a
+study: finest run, Richardson, fallback, first run; (c) a real, short Taylor study through the CLI:
+study.csv/md/png exist, the numbers in study.csv are the runs' summary.json values, the finest
+run's error is 0 and the others' errors are (value - ref)/|ref|, an invalid value and a time step
+above the stable limit are rows with their reasons; --reuse reruns nothing; (d) a subprocess that
+exits 2 becomes an "invalid" row; bad study arguments exit 2.
+"""
+import csv
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from fenics_plast import study as st
+
+REPO = Path(__file__).resolve().parent.parent
+TAYLOR = REPO / "demos" / "taylor_bar.toml"
+SERIAL = int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1")) == 1
+needs_serial = pytest.mark.skipif(not SERIAL, reason="starts its own processes")
+
+
+# -- (a) Richardson -----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("refine, p", [((1, 2, 4), 1.7), ((1, 2, 4), 2.0), ((2, 3, 5), 1.3), ((1, 3, 4), 0.8)])
+def test_richardson_manufactured(refine, p):
+    """f(h) = 2.5 - 3 h^p with h = 1/refine: the observed order is p and the limit is 2.5."""
+    h = [1.0 / r for r in refine]
+    f = [2.5 - 3.0 * x ** p for x in h]
+    res = st.richardson(h, f)
+    assert res.ok
+    assert res.order == pytest.approx(p, rel=1e-9)
+    assert res.value == pytest.approx(2.5, rel=1e-9)
+
+
+def test_richardson_refuses_non_monotone_and_out_of_range():
+    h = [1.0, 0.5, 0.25]
+    res = st.richardson(h, [1.0, 1.2, 1.1])          # up then down
+    assert not res.ok and "not monotone" in res.note
+    res = st.richardson(h, [1.0, 1.5, 1.5])          # two finest identical
+    assert not res.ok and "round-off" in res.note
+    res = st.richardson(h, [1.0, 1.5, 1.50001])      # p = ln(5e4)/ln 2 = 15.6: outside [0.3, 8]
+    assert not res.ok and res.order == pytest.approx(math.log(0.5 / 1e-5, 2), rel=1e-9)
+    with pytest.raises(ValueError):
+        st.richardson([0.5, 1.0, 0.25], [1, 2, 3])
+
+
+# -- (b) references on synthetic runs -------------------------------------------------------------
+
+def _runs(varies, values, key="x"):
+    """Fake successful runs of ``varies`` with summary[key] = values[i] (None: a failed run)."""
+    runs = []
+    for i, combo in enumerate(st.combinations(varies)):
+        r = st.Run(name=st.run_name(i, combo, varies), label=st.run_label(combo, varies), settings=combo)
+        if values[i] is None:
+            r.status, r.reason = "failed", "boom"
+        else:
+            r.status, r.summary = "ok", {key: values[i], "wall_time_s": float(i + 1)}
+        runs.append(r)
+    return runs
+
+
+def test_references_richardson_and_groups():
+    varies = [st.parse_vary("material.model=seed,isochoric"), st.parse_vary("mesh.refine=1,2,4")]
+    f = lambda c, r: c - 0.4 * (1.0 / r) ** 2          # noqa: E731  order 2, limit c
+    vals = [f(7.0, 1), f(7.0, 2), f(7.0, 4), f(7.2, 1), f(7.2, 2), f(7.2, 4)]
+    runs = _runs(varies, vals)
+    refs = st.references(runs, varies, ["x"])
+    assert [ref.group for ref in refs] == [(("material.model", "seed"),), (("material.model", "isochoric"),)]
+    for ref, limit in zip(refs, (7.0, 7.2)):
+        assert ref.values["x"] == pytest.approx(limit, rel=1e-12)
+        assert ref.orders["x"] == pytest.approx(2.0, rel=1e-9)
+        assert "Richardson" in ref.kind["x"]
+    # the error of refine = 1 (seed) against the extrapolation: -0.4 / 7
+    assert st.relative_error(runs[0].summary["x"], refs[0].values["x"]) == pytest.approx(-0.4 / 7.0, rel=1e-9)
+
+
+def test_references_fallbacks():
+    varies = [st.parse_vary("mesh.refine=1,2,3")]
+    refs = st.references(_runs(varies, [1.0, 1.2, 1.1]), varies, ["x"])     # not monotone
+    assert refs[0].values["x"] == 1.1 and refs[0].orders["x"] is None
+    assert any("not monotone" in n for n in refs[0].notes)
+    refs = st.references(_runs(varies, [1.0, 1.2, None]), varies, ["x"])    # finest failed
+    assert refs[0].values["x"] == 1.2 and refs[0].run.name == "02_refine-2"
+    assert any("failed" in n for n in refs[0].notes)
+    # dt_safety: smaller is finer
+    varies = [st.parse_vary("solver.dt_safety=1.0,0.5,0.8")]
+    refs = st.references(_runs(varies, [3.0, 1.0, 2.0]), varies, ["x"])
+    assert refs[0].values["x"] == 1.0 and refs[0].run.settings["solver.dt_safety"] == "0.5"
+    # no ordered key: the first successful run
+    varies = [st.parse_vary("contact.law=coulomb,quasi-coulomb")]
+    refs = st.references(_runs(varies, [None, 5.0]), varies, ["x"])
+    assert refs[0].values["x"] == 5.0 and "first run" in refs[0].kind["x"]
+
+
+def test_parse_vary():
+    v = st.parse_vary("mesh.refine = 1, 2,4")
+    assert (v.key, v.values) == ("mesh.refine", ["1", "2", "4"])
+    assert st.parse_vary("material.hardening.strain=[0, 0.1],[0, 0.2]").values == ["[0, 0.1]", "[0, 0.2]"]
+    for bad in ("mesh.refine", "refine=1,2", "mesh.refine=1,,2", "mesh.refine=1,1"):
+        with pytest.raises(st.StudyError):
+            st.parse_vary(bad)
+
+
+# -- (c) a real study ---------------------------------------------------------------------------------
+
+def _read_csv(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+@needs_serial
+def test_short_taylor_study(tmp_path):
+    """Taylor bar to 5 us: refine 0 (invalid), 1, 2 x a fixed step count of 1 (above the stable limit)
+    and 200. Four processes, about 15 s."""
+    out = tmp_path / "study"
+    args = ["study", str(TAYLOR), "--vary", "mesh.refine=0,1,2", "--vary", "solver.steps=1,200",
+            "--set", "loading.end_time_us=5", "--set", "output.history_points=3", "--out", str(out)]
+    r = subprocess.run([sys.executable, "-m", "fenics_plast.cli", *args], capture_output=True, text=True,
+                       cwd=REPO, timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    for name in ("study.csv", "study.md", "study.png"):
+        assert (out / name).stat().st_size > 0
+    rows = _read_csv(out / "study.csv")
+    assert [row["run"] for row in rows] == ["01_refine-0_steps-1", "02_refine-0_steps-200", "03_refine-1_steps-1",
+                                            "04_refine-1_steps-200", "05_refine-2_steps-1", "06_refine-2_steps-200"]
+    by = {row["run"]: row for row in rows}
+    # invalid value: the validator's message, no run directory
+    for name in ("01_refine-0_steps-1", "02_refine-0_steps-200"):
+        assert by[name]["status"] == "invalid"
+        assert "mesh.refine" in by[name]["reason"] and "refine >= 1" in by[name]["reason"]
+        assert not (out / "runs" / name).exists()
+    # step above the stable limit: the run's error, from its summary.json
+    for name in ("03_refine-1_steps-1", "05_refine-2_steps-1"):
+        assert by[name]["status"] == "failed"
+        assert "exceeds the stable limit" in by[name]["reason"]
+        summary = json.loads((out / "runs" / name / "summary.json").read_text())
+        assert by[name]["reason"] == summary["error"]
+        assert by[name]["err_final_radius_mm"] == ""
+    # the successful runs: every number is the summary's
+    keys = st.KEY_RESULTS["taylor_bar"]
+    for name in ("04_refine-1_steps-200", "06_refine-2_steps-200"):
+        row = by[name]
+        assert row["status"] == "ok" and row["reason"] == ""
+        summary = json.loads((out / "runs" / name / "summary.json").read_text())
+        for c in ["wall_time_s", "cells", "dofs", "steps", "mpi_ranks"] + keys + st.INFO_COLUMNS["taylor_bar"]:
+            assert float(row[c]) == summary[c], c
+        assert summary["overrides"][-2:] == [f"mesh.refine={row['mesh.refine']}", "solver.steps=200"]
+        assert summary["steps"] == 200
+    fine, coarse = by["06_refine-2_steps-200"], by["04_refine-1_steps-200"]
+    assert int(fine["cells"]) == 4 * int(coarse["cells"]) == 864
+    for k in keys:
+        assert float(fine[f"err_{k}"]) == 0.0
+        assert float(coarse[f"ref_{k}"]) == float(fine[k])
+        e = (float(coarse[k]) - float(fine[k])) / abs(float(fine[k]))
+        assert float(coarse[f"err_{k}"]) == pytest.approx(e, rel=1e-12, abs=1e-15)
+    # the radius grows with refinement at 5 us (measured: 4.33 -> 4.43 mm): a real difference
+    assert float(coarse["err_final_radius_mm"]) < -0.01
+    # 5 us is not the paper's 80 us scene: no paper columns
+    assert "err_paper_final_radius_mm" not in rows[0]
+    md = (out / "study.md").read_text()
+    assert "exceeds the stable limit" in md and "| 06_refine-2_steps-200 | 2 | 200 | ok |" in md
+    assert md.count("\n| 0") == 6
+
+    # --reuse: nothing runs again, same table
+    before = (out / "study.csv").read_text()
+    s = st.run_study(TAYLOR, [st.parse_vary("mesh.refine=0,1,2"), st.parse_vary("solver.steps=1,200")], out,
+                     ["loading.end_time_us=5", "output.history_points=3"], reuse=True, log=lambda m: None)
+    assert [r.reused for r in s.runs] == [False, False, True, True, True, True]
+    assert (out / "study.csv").read_text() == before      # process_time_s too: the recorded one
+
+
+# -- (d) failure plumbing and bad arguments ------------------------------------------------------------
+
+@needs_serial
+def test_exit_2_subprocess_becomes_invalid_row(tmp_path):
+    run = st.Run(name="01_x", label="x", settings={})
+    st.execute(run, TAYLOR, ["mesh.refine=zero"], tmp_path / "01_x")
+    assert run.status == "invalid" and run.returncode == 2
+    assert "mesh.refine" in run.reason and not (tmp_path / "01_x" / "summary.json").exists()
+
+
+def test_bad_study_arguments_exit_2(tmp_path, capsys):
+    out = tmp_path / "o"
+    assert st.main([str(TAYLOR), "--vary", "mesh.refine", "--out", str(out)]) == 2
+    assert "must have the form" in capsys.readouterr().err
+    assert st.main([str(TAYLOR), "--vary", "mesh.refine=1,2", "--set", "material.nu=0.7", "--out", str(out)]) == 2
+    assert "material.nu" in capsys.readouterr().err
+    assert st.main([str(TAYLOR), "--vary", "mesh.refine=1,2", "--vary", "mesh.refine=3", "--out", str(out)]) == 2
+    assert not (out / "study.csv").exists()
