@@ -87,10 +87,7 @@ def cmd_run(args) -> int:
     t0 = time.perf_counter()
     status = EXIT_OK
     try:
-        try:
-            results = runner(scene, output)
-        finally:
-            output.end_progress()       # the bar's line ends before any error message
+        results = runner(scene, output)
         if results is None:
             results = {}
         summary.update(results)
@@ -242,21 +239,6 @@ def cmd_point(args) -> int:
 
 
 # ----------------------------------------------------------------------------------------------
-# plot
-
-
-def cmd_plot(args) -> int:
-    from .plots import PlotError, draw
-    try:
-        paths = draw(args.dir)
-    except PlotError as e:
-        _error(str(e))
-        return EXIT_USAGE
-    _say(f"fenics-plast plot: {len(paths)} figure(s): {', '.join(p.name for p in paths)} in {args.dir}")
-    return EXIT_OK
-
-
-# ----------------------------------------------------------------------------------------------
 # keys
 
 
@@ -304,12 +286,6 @@ def build_parser() -> argparse.ArgumentParser:
 
     k = sub.add_parser("keys", help="print the scene key reference (docs/SCENE_KEYS.md)")
     k.set_defaults(func=cmd_keys)
-
-    pl = sub.add_parser("plot", help="redraw the PNG plots of a results folder",
-                        description="Redraws the scene kind's PNGs in DIR from its history.csv (and other "
-                                    "CSV files), reading the kind from summary.json.")
-    pl.add_argument("dir", help="results folder of `fenics-plast run` (summary.json, history.csv)")
-    pl.set_defaults(func=cmd_plot)
 
     from .study import add_study_arguments
     st = sub.add_parser("study", help="run combinations of scene-key overrides; tabulate cost and error",
