@@ -38,6 +38,7 @@ def parse():
     p.add_argument("--refine", type=int, default=1)
     p.add_argument("--model", default=None, help="isochoric | seed (default: the scene's)")
     p.add_argument("--element", default=None, help="q1p0 | q1 (default: the scene's)")
+    p.add_argument("--internal-force", default=None, help="fused | ufl (default: the scene's)")
     p.add_argument("--end-us", type=float, default=None, help="simulated time (default: the scene's 80 us)")
     p.add_argument("--max-steps", type=int, default=None, help="stop after this many steps (refine > 1: 400)")
     p.add_argument("--repeats", type=int, default=50, help="calls per part in the breakdown")
@@ -61,6 +62,8 @@ def bench(args):
         ov.append(f"material.model={args.model}")
     if args.element:
         ov.append(f"mesh.element={args.element}")
+    if args.internal_force:
+        ov.append(f"solver.internal_force={args.internal_force}")
     if args.end_us:
         ov.append(f"loading.end_time_us={args.end_us}")
     scene = load_scene(REPO / "demos" / "taylor_bar.toml", ov)
@@ -83,9 +86,13 @@ def bench(args):
     steps = stats["steps"]
     length, radius = bar_shape(s)
 
-    # breakdown at the final state (idempotent calls: no commit, same u)
+    results = dict(final_length_mm=length, final_radius_mm=radius, max_eqps=s.max_eqps(),
+                   energy_balance_error=s.energies()["balance_error"])
+
+    # breakdown at the final state (each part repeated; the material state is restored afterwards)
     q = s.qmap
     R = args.repeats
+    saved = q.binv.copy(), q.eqps.copy()
 
     def timed(f):
         comm.barrier()
@@ -94,21 +101,26 @@ def bench(args):
             f()
         return tmax((time.perf_counter() - t) / R)
 
-    def assemble_f():
-        b = s._f
-        with b.localForm() as bl:
-            bl.set(0.0)
-        fem_petsc.assemble_vector(b, s._L_int)
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    if s.fused:
+        parts = {"fused pass (kinematics + material + force)": timed(s._internal_force)}
+    else:
+        def assemble_f():
+            b = s._f
+            with b.localForm() as bl:
+                bl.set(0.0)
+            fem_petsc.assemble_vector(b, s._L_int)
+            b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
 
-    parts = {
-        "Fu eval": timed(q.evaluate_Fu),
-        "material update": timed(lambda: s.material.update_into(q.Fu, q.binv, q.eqps, q.tau_values,
-                                                                q.binv_trial, q.eqps_trial, None)),
-        "tau scatter + finite check": timed(lambda: (q.tau_values.sum(), q._write(q.tau, q.tau_values, 9, q._qdofs, q.trivial_tau))),
-        "theta assembly": timed(s._update_theta) if s.theta is not None else 0.0,
-        "f_int assembly": timed(assemble_f),
-    }
+        parts = {
+            "Fu eval": timed(q.evaluate_Fu),
+            "material update": timed(lambda: s.material.update_into(q.Fu, q.binv, q.eqps, q.tau_values,
+                                                                    q.binv_trial, q.eqps_trial, None)),
+            "tau scatter + finite check": timed(lambda: (q.tau_values.sum(),
+                                                         q._write(q.tau, q.tau_values, 9, q._qdofs, q.trivial_tau))),
+            "theta assembly": timed(s._update_theta) if s.theta is not None else 0.0,
+            "f_int assembly": timed(assemble_f),
+        }
+    q.binv[:], q.eqps[:] = saved
     per_step = loop / max(steps, 1)
     parts["rest (vectors, dt, bookkeeping)"] = max(per_step - sum(parts.values()), 0.0)
     cells = s.cells_global
@@ -116,18 +128,17 @@ def bench(args):
                model=s.material.model, element=s.element, steps=steps, simulated_us=s.t * 1e6,
                setup_s=setup, loop_s=loop, time_per_step_ms=per_step * 1e3,
                time_per_cell_step_us=per_step / cells * 1e6,
-               breakdown_ms={k: v * 1e3 for k, v in parts.items()},
-               final_length_mm=length, final_radius_mm=radius, max_eqps=s.max_eqps(),
-               energy_balance_error=s.energies()["balance_error"])
+               breakdown_ms={k: v * 1e3 for k, v in parts.items()}, internal_force=s.internal_force_route,
+               **results)
     if comm.rank == 0:
         print(f"Taylor bar benchmark: {cells} cells ({fig['dofs']} dofs, {fig['qps']} qps), "
-              f"{s.element}, {s.material.model}, {comm.size} rank(s)")
+              f"{s.element}, {s.material.model}, internal force {s.internal_force_route}, {comm.size} rank(s)")
         print(f"  setup (mesh, forms, expressions, JIT{' cold' if args.cold else ''}): {setup:8.3f} s")
         print(f"  step loop (no compilation): {loop:8.3f} s for {steps} steps, {fig['simulated_us']:.2f} us simulated")
         print(f"  per step: {per_step * 1e3:.4f} ms   per cell-step: {fig['time_per_cell_step_us']:.4f} us")
         print("  breakdown of one step (ms, share):")
         for k, v in parts.items():
-            print(f"    {k:34s} {v * 1e3:8.4f}  {100 * v / per_step:5.1f} %")
+            print(f"    {k:44s} {v * 1e3:8.4f}  {100 * v / per_step:5.1f} %")
         print(f"  final length {length:.3f} mm, impact radius {radius:.3f} mm, max eqps {fig['max_eqps']:.3f}, "
               f"energy error {fig['energy_balance_error']:.2e}")
         if args.json:
@@ -142,9 +153,9 @@ def compare_mpi(args):
             js = Path(d) / "fig.json"
             cmd = [sys.executable, __file__, "--refine", str(args.refine), "--json", str(js),
                    "--repeats", str(args.repeats)]
-            for k in ("model", "element"):
+            for k in ("model", "element", "internal_force"):
                 if getattr(args, k):
-                    cmd += [f"--{k}", getattr(args, k)]
+                    cmd += [f"--{k.replace('_', '-')}", getattr(args, k)]
             if args.end_us:
                 cmd += ["--end-us", str(args.end_us)]
             if args.max_steps is not None:

@@ -62,8 +62,9 @@ class QuadratureMap:
         self.trivial_a = bool(np.array_equal(self._qdofs_a, arange))
         self.trivial = self.trivial_tau and self.trivial_a
 
-        # compiled expression of Fu and its buffer
-        self.Fu_expr = fem.Expression(Fu_expr, self.points)
+        # compiled expression of Fu and its buffer (None: the caller computes Fu itself and only uses
+        # the state arrays, e.g. the explicit solver's fused pass)
+        self.Fu_expr = None if Fu_expr is None else fem.Expression(Fu_expr, self.points)
         self._Fu = np.zeros((self.n_owned, self.nq * 9))
 
         # committed and trial state

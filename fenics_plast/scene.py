@@ -224,6 +224,10 @@ SCHEMA: dict[str, dict[str, Key | list[Key]]] = {
                          lo=0.0, hi=1.0, hi_open=False),
         "steps": Key("int", OPTIONAL, "Fixes dt = end_time/steps; refused if above the stable limit.",
                      kinds=EXPLICIT, lo=1, lo_open=False),
+        "internal_force": Key("str", "fused", "How the explicit internal force is computed: 'fused' "
+                              "(one compiled pass: kinematics, material, force; ~5x faster) or 'ufl' (the UFL "
+                              "residual assembled by dolfinx). Same numbers to round-off.",
+                              kinds=EXPLICIT, choices=("fused", "ufl")),
     },
     "output": {
         "xdmf": Key("bool", True, "Write fields to fields.xdmf."),

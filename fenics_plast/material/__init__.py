@@ -72,6 +72,13 @@ class Material:
         lam, mu = self.lame
         return float(np.sqrt((lam + 2 * mu) / density))
 
+    def kernel_args(self) -> tuple:
+        """(model, lam, mu, law, hardening params, yield_tol): the trailing arguments of
+        :func:`fenics_plast.material.kernels.update_points` after the state arrays, for callers that
+        run the update inside their own compiled loop."""
+        lam, mu = self.lame
+        return self._model, lam, mu, self._law, self._hp, self.yield_tol
+
     def update_into(self, Fu, binv_n, eqps_n, tau, binv, eqps, a=None) -> int:
         """Constitutive update of n points into preallocated arrays (see :meth:`update`).
 

@@ -109,6 +109,18 @@ def _eigh3(S, w, Q):
         for j in range(3):
             Q[i, j] = 1.0 if i == j else 0.0
     scale = abs(a00) + abs(a11) + abs(a22) + 1e-300
+    if a02 == 0.0 and a12 == 0.0:
+        # block diagonal (axisymmetric and plane-strain states): the first Jacobi rotation below
+        # is exact; done here without the sweep loop (same operations, same result, 2x cheaper)
+        if abs(a01) > 1e-17 * scale:
+            theta = (a11 - a00) / (2.0 * a01)
+            t = (1.0 if theta >= 0.0 else -1.0) / (abs(theta) + math.sqrt(theta * theta + 1.0))
+            c = 1.0 / math.sqrt(t * t + 1.0)
+            s = t * c
+            a00, a11 = a00 - t * a01, a11 + t * a01
+            Q[0, 0], Q[0, 1], Q[1, 0], Q[1, 1] = c, s, -s, c
+        w[0], w[1], w[2] = a00, a11, a22
+        return
     for _sweep in range(30):
         off = abs(a01) + abs(a02) + abs(a12)
         if off <= 1e-17 * scale:
@@ -296,7 +308,17 @@ def _g_log(b1, b2):
 
 
 @_njit
-def _isochoric_points(Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_tangent, bt, s, Q, beta, dtau, eqps):
+def _spectral(Q, v0, v1, v2, out, q):
+    """out[q] = Q diag(v0, v1, v2) Q^T (symmetric)."""
+    for i in range(3):
+        for j in range(i, 3):
+            v = v0 * Q[i, 0] * Q[j, 0] + v1 * Q[i, 1] * Q[j, 1] + v2 * Q[i, 2] * Q[j, 2]
+            out[q, i, j] = v
+            out[q, j, i] = v
+
+
+@_njit
+def _isochoric_points(Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_tangent, bt, Q, beta, dtau, eqps):
     """Isochoric (exponential map, logarithmic strain) model for all points (as _seed_points)."""
     nplastic = 0
     for q in range(Fu.shape[0]):
@@ -308,45 +330,35 @@ def _isochoric_points(Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_t
         e0, e1, e2 = -0.5 * math.log(beta[0]), -0.5 * math.log(beta[1]), -0.5 * math.log(beta[2])
         tr_e = e0 + e1 + e2
         p = (lam + 2.0 * mu / 3.0) * tr_e
-        # principal trial deviator, stored on the diagonal of s
-        for i in range(3):
-            for j in range(3):
-                s[i, j] = 0.0
-        s[0, 0] = 2.0 * mu * (e0 - tr_e / 3.0)
-        s[1, 1] = 2.0 * mu * (e1 - tr_e / 3.0)
-        s[2, 2] = 2.0 * mu * (e2 - tr_e / 3.0)
-        q_tr = math.sqrt(1.5 * (s[0, 0] ** 2 + s[1, 1] ** 2 + s[2, 2] ** 2))
+        # principal trial deviator s_A
+        s0 = 2.0 * mu * (e0 - tr_e / 3.0)
+        s1 = 2.0 * mu * (e1 - tr_e / 3.0)
+        s2 = 2.0 * mu * (e2 - tr_e / 3.0)
+        q_tr = math.sqrt(1.5 * (s0 * s0 + s1 * s1 + s2 * s2))
         dg, theta, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
         eqps[q] = eps_n[q] + dg
         nplastic += dg > 0.0
         fac = 1.5 * dg / q_tr if dg > 0.0 else 0.0  # n_A = 3/2 s_A / q_tr
-        t_p = (p + (1.0 - 2.0 * mu * fac) * s[0, 0], p + (1.0 - 2.0 * mu * fac) * s[1, 1],
-               p + (1.0 - 2.0 * mu * fac) * s[2, 2])
-        # exponential map: eps_A <- eps_A - dg n_A ;  binv = Q diag(exp(-2 eps_A)) Q^T
-        bn = (math.exp(-2.0 * (e0 - fac * s[0, 0])), math.exp(-2.0 * (e1 - fac * s[1, 1])),
-              math.exp(-2.0 * (e2 - fac * s[2, 2])))
-        for i in range(3):
-            for j in range(i, 3):
-                vt = 0.0
-                vb = 0.0
-                for A in range(3):
-                    qq = Q[i, A] * Q[j, A]
-                    vt += t_p[A] * qq
-                    vb += bn[A] * qq
-                tau[q, i, j] = vt
-                tau[q, j, i] = vt
-                Bout[q, i, j] = vb
-                Bout[q, j, i] = vb
+        r = 1.0 - 2.0 * mu * fac
+        _spectral(Q, p + r * s0, p + r * s1, p + r * s2, tau, q)
+        if dg > 0.0:
+            # exponential map: eps_A <- eps_A - dg n_A ;  binv = Q diag(exp(-2 eps_A)) Q^T
+            _spectral(Q, math.exp(-2.0 * (e0 - fac * s0)), math.exp(-2.0 * (e1 - fac * s1)),
+                      math.exp(-2.0 * (e2 - fac * s2)), Bout, q)
+        else:                       # elastic: binv = bt (the exponential map is the identity)
+            for i in range(3):
+                for j in range(3):
+                    Bout[q, i, j] = bt[i, j]
         if not want_tangent:
             continue
         # tangent, built in the eigenbasis of bt for each unit l = e_k (x) e_l:
         #   delta eps'_AA = Q_kA Q_lA ;  delta eps'_AB = g_AB (beta_B Q_lA Q_kB + beta_A Q_kA Q_lB)/2
         #   delta tau' = D' delta eps' ;  a_ijkl = (Q delta tau' Q^T)_ij
         kap = lam + 2.0 * mu / 3.0
-        nrm = math.sqrt(s[0, 0] ** 2 + s[1, 1] ** 2 + s[2, 2] ** 2)
-        N0 = s[0, 0] / nrm if nrm > 0.0 else 0.0
-        N1 = s[1, 1] / nrm if nrm > 0.0 else 0.0
-        N2 = s[2, 2] / nrm if nrm > 0.0 else 0.0
+        nrm = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+        N0 = s0 / nrm if nrm > 0.0 else 0.0
+        N1 = s1 / nrm if nrm > 0.0 else 0.0
+        N2 = s2 / nrm if nrm > 0.0 else 0.0
         g01 = _g_log(beta[0], beta[1])
         g02 = _g_log(beta[0], beta[2])
         g12 = _g_log(beta[1], beta[2])
@@ -392,7 +404,6 @@ def update_points(model, Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, b
     """
     n = Fu.shape[0]
     bt = np.empty((3, 3))
-    s = np.empty((3, 3))
     Q = np.empty((3, 3))
     beta = np.empty(3)
     dtau = np.empty((3, 3))
@@ -401,7 +412,7 @@ def update_points(model, Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, b
         return _seed_points(Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, binv, a, want_tangent,
                             bt, nb, eqps)
     return _isochoric_points(Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, binv, a, want_tangent,
-                             bt, s, Q, beta, dtau, eqps)
+                             bt, Q, beta, dtau, eqps)
 
 
 @_njit

@@ -35,7 +35,8 @@ def build(scene, comm=MPI.COMM_WORLD, log=None):
     material = Material.from_scene(scene.material)
     bcs = [(0, facet_tags.find(tag_ids["axis"])),        # radial velocity 0 on the axis
            (1, facet_tags.find(tag_ids["bottom"]))]      # axial velocity 0 on the impact face
-    solver = ExplicitDynamics(mesh, kin, material, scene.material.density, bcs, element=m.element, log=log)
+    solver = ExplicitDynamics(mesh, kin, material, scene.material.density, bcs, element=m.element, log=log,
+                              internal_force=scene.solver.internal_force)
     solver.set_velocity((0.0, -scene.loading.velocity))
     fdim = mesh.topology.dim - 1
     solver.bottom_nodes = fem.locate_dofs_topological(solver.V, fdim, facet_tags.find(tag_ids["bottom"]))
@@ -117,6 +118,7 @@ def simulate(scene, output=None, comm=MPI.COMM_WORLD, log=None):
         wave_speed_m_s=solver.c * 1e-3,
         element=solver.element,
         model=solver.material.model,
+        internal_force=solver.internal_force_route,
         step_loop_time_s=stats["wall_s"],
         time_per_step_s=stats["time_per_step_s"],
         setup_time_s=solver.timings["setup_s"],

@@ -11,7 +11,11 @@ Scheme (central differences written in velocity-Verlet form, which allows a vari
 
 * The mass is the row-sum lumped mass  M_i = int rho N_i w dV  (w = 2 pi r in axisymmetry).
 * The internal force is ``Kinematics.internal_virtual_work`` (the one R_u of DESIGN.md, shared with
-  the static solver), with tau from ``QuadratureMap`` (the one material path).
+  the static solver), with tau from the material kernels (the one material path). Two routes compute
+  it: ``internal_force="fused"`` (default) runs kinematics, material update and nodal force in one
+  compiled pass over the cells (:mod:`fenics_plast.solvers.fused_force`, ~5x cheaper per step);
+  ``"ufl"`` evaluates the UFL expression of Fu, calls ``QuadratureMap.update`` and assembles the
+  UFL form with dolfinx. Both give the same force to round-off (tests/test_fused_force.py).
 * Velocity boundary conditions are homogeneous (sliding supports, fixed walls): those dofs keep
   zero velocity and zero acceleration; their internal force is the support reaction.
 * Stable step: dt_stable = h_min / c with h the smallest edge or altitude of any deformed quad and
@@ -35,8 +39,11 @@ from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from dolfinx.cpp.la import ScatterMode
+
 from fenics_plast.errors import RunError
 from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
+from fenics_plast.solvers import fused_force
 
 # basix vertex order of a quadrilateral is tensor-product (0,0) (1,0) (0,1) (1,1); cyclic order:
 _QUAD_CYCLE = np.array([0, 1, 3, 2])
@@ -81,12 +88,22 @@ class ExplicitDynamics:
     density : tonne/mm^3.
     velocity_bcs : list of (component, facet indices): that velocity component is held at 0.
     element : "q1p0" (DG0 mean dilatation, F-bar) or "q1" (theta = None).
+    internal_force : "fused" (one compiled pass: kinematics + material + force) or "ufl" (UFL
+        expression + QuadratureMap + dolfinx assembly of the UFL form); same numbers, see module doc.
     """
 
+    INTERNAL_FORCE_ROUTES = ("fused", "ufl")
+
     def __init__(self, mesh, kin, material, density, velocity_bcs=(), element="q1p0",
-                 reestimate_every=10, log=None):
+                 reestimate_every=10, log=None, internal_force="fused"):
         if element not in ("q1p0", "q1"):
             raise ValueError(f"element must be 'q1p0' or 'q1', got {element!r}")
+        if internal_force not in self.INTERNAL_FORCE_ROUTES:
+            raise ValueError(f"internal_force must be one of {self.INTERNAL_FORCE_ROUTES}, got {internal_force!r}")
+        if mesh.ufl_cell().cellname() != "quadrilateral":
+            raise ValueError("the explicit solver supports quadrilateral meshes only")
+        self.internal_force_route = internal_force
+        self.fused = internal_force == "fused"
         self.mesh, self.kin, self.material, self.density = mesh, kin, material, float(density)
         self.comm = mesh.comm
         self.element = element
@@ -108,36 +125,25 @@ class ExplicitDynamics:
         self.n_cells_own = mesh.topology.index_map(tdim).size_local
         self.cells_global = mesh.topology.index_map(tdim).size_global
 
-        # dilatation field
-        if element == "q1p0":
-            D0 = fem.FunctionSpace(mesh, ("DG", 0))
-            self.D0 = D0
-            self.theta = fem.Function(D0, name="theta")
-            self.theta_n = fem.Function(D0, name="theta_previous")
-            self.theta.x.array[:] = 1.0
-            self.theta_n.x.array[:] = 1.0
-            q = ufl.TestFunction(D0)
-            self._L_theta = fem.form(kin.J(self.u) * kin.weight * q * kin.dx)
-            vol = fem_petsc.assemble_vector(fem.form(kin.weight * q * kin.dx))
-            self._n_theta = D0.dofmap.index_map.size_local
-            self._cellvol_inv = 1.0 / vol.array.copy()
-            vol.destroy()
-            self._b_theta = fem_petsc.create_vector(self._L_theta)
-            self._b_theta_arr = self._b_theta.getArray()           # owned view
-            theta, theta_n = self.theta, self.theta_n
-        else:
-            self.theta = self.theta_n = None
-            theta = theta_n = None
+        # geometry for the stable step: reference positions of the dofs, cell -> dofs
+        X = V.tabulate_dof_coordinates()[:, :2]
+        self._X = np.ascontiguousarray(X)
+        cell_nodes = np.ascontiguousarray(V.dofmap.list.array.reshape(-1, 4)[: self.n_cells_own], dtype=np.int64)
+        self._cell_nodes = cell_nodes                                # basix order
+        self._cell_dofs = np.ascontiguousarray(cell_nodes[:, _QUAD_CYCLE])   # cyclic order
+        self._xbuf = np.empty_like(self._X)
+        self._hbuf = np.empty(self.n_cells_own)
+        self.c = material.wave_speed(self.density)
+        points, weights = fused_force.quadrature(kin.degree)        # the rule of kin.dx and QuadratureMap
+        self.geometry = fused_force.CellGeometry(self._X[cell_nodes], points, weights, kin.axisymmetric)
 
-        # one material path: Fu = Fbar(u, theta) Fbar(u_n, theta_n)^-1 at the qps, compiled once
-        Fu_expr = kin.Fu(self.u, theta, self.u_n, theta_n)
-        self.qmap = QuadratureMap(mesh, kin, material, Fu_expr, degree=kin.degree, tangent=False)
-
-        # internal force: the shared R_u, compiled once, reused Vec
         vt = ufl.TestFunction(V)
-        self._L_int = fem.form(kin.internal_virtual_work(self.u, theta, self.qmap.tau, vt))
-        self._f = fem_petsc.create_vector(self._L_int)
-        self.f = self._f.getArray()                                 # owned view, refreshed in place
+        if self.fused:
+            self._setup_fused(kin)
+        else:
+            self._setup_ufl(kin, vt)
+        # reference quadrature weights w |det J0| q_w, for energy integrals
+        self._wq = self.geometry.W.reshape(-1)
 
         # lumped mass (row sums), weighted by kin.weight
         ones = fem.Constant(mesh, PETSc.ScalarType((1.0,) * self.bs))
@@ -159,24 +165,9 @@ class ExplicitDynamics:
         self.free_minv = self.minv.copy()
         self.free_minv[self.fixed] = 0.0                            # a = -f * free_minv: zero on fixed dofs
 
-        # geometry for the stable step: reference positions of the dofs, cell -> dofs (cyclic)
-        X = V.tabulate_dof_coordinates()[:, :2]
-        self._X = np.ascontiguousarray(X)
-        cd = V.dofmap.list.array.reshape(-1, 4)[: self.n_cells_own]
-        self._cell_dofs = np.ascontiguousarray(cd[:, _QUAD_CYCLE], dtype=np.int64)
-        self._xbuf = np.empty_like(self._X)
-        self._hbuf = np.empty(self.n_cells_own)
-        self.c = material.wave_speed(self.density)
-
-        # quadrature weights w |detJ| q_w (reference configuration) for energy integrals
-        we = fem.Expression(ufl.as_ufl(kin.weight) * abs(ufl.JacobianDeterminant(mesh)), self.qmap.points)
-        self._wq = (we.eval(self.qmap.cells).reshape(self.n_cells_own, self.qmap.nq)
-                    * self.qmap.weights[None, :]).reshape(-1)
-
         # buffers
         self.a = np.zeros(self.n_own)
         self.du = np.zeros(self.n_own)
-        self._tmp = np.zeros(self.n_own)
         self.t = 0.0
         self.step_count = 0
         self.W_int = 0.0          # local (owned) accumulators, reduced when reported
@@ -184,6 +175,48 @@ class ExplicitDynamics:
         self.KE0 = None
         self._failure = None
         self.timings["setup_s"] = time.perf_counter() - t0
+
+    def _setup_fused(self, kin):
+        """Data of the compiled pass: reference geometry at the quadrature points, work arrays."""
+        self.qmap = QuadratureMap(self.mesh, kin, self.material, None, degree=kin.degree, tangent=False)
+        n = self.qmap.n
+        self._Fu = np.zeros((n, 3, 3))              # off-block entries stay 0 (2-D kinematics)
+        self._Finv = np.zeros((n, 5))
+        self._factor = np.zeros(n)
+        self.theta_cells = np.ones(self.n_cells_own)
+        self.theta = self.theta_n = None
+        self._ffun = fem.Function(self.V, name="internal_force")
+        self._f_all = self._ffun.x.array                            # owned + ghost, filled by the pass
+        self.f = self._f_all[: self.n_own]
+        self._kernel_args = self.material.kernel_args()
+
+    def _setup_ufl(self, kin, vt):
+        """Forms and expression of the dolfinx route (compiled once)."""
+        mesh = self.mesh
+        if self.element == "q1p0":
+            D0 = fem.FunctionSpace(mesh, ("DG", 0))
+            self.D0 = D0
+            self.theta = fem.Function(D0, name="theta")
+            self.theta_n = fem.Function(D0, name="theta_previous")
+            self.theta.x.array[:] = 1.0
+            self.theta_n.x.array[:] = 1.0
+            q = ufl.TestFunction(D0)
+            self._L_theta = fem.form(kin.J(self.u) * kin.weight * q * kin.dx)
+            vol = fem_petsc.assemble_vector(fem.form(kin.weight * q * kin.dx))
+            self._n_theta = D0.dofmap.index_map.size_local
+            self._cellvol_inv = 1.0 / vol.array.copy()
+            vol.destroy()
+            self._b_theta = fem_petsc.create_vector(self._L_theta)
+            self._b_theta_arr = self._b_theta.getArray()           # owned view
+        else:
+            self.theta = self.theta_n = None
+        # Fu = Fbar(u, theta) Fbar(u_n, theta_n)^-1 at the qps, compiled once
+        Fu_expr = kin.Fu(self.u, self.theta, self.u_n, self.theta_n)
+        self.qmap = QuadratureMap(mesh, kin, self.material, Fu_expr, degree=kin.degree, tangent=False)
+        # internal force: the shared R_u, compiled once, reused Vec
+        self._L_int = fem.form(kin.internal_virtual_work(self.u, self.theta, self.qmap.tau, vt))
+        self._f = fem_petsc.create_vector(self._L_int)
+        self.f = self._f.getArray()                                 # owned view, refreshed in place
 
     @staticmethod
     def _print(msg):
@@ -215,6 +248,19 @@ class ExplicitDynamics:
 
     def _internal_force(self):
         """Material update + commit at the current u, then f_int into self.f (owned)."""
+        if self.fused:
+            g = self.geometry
+            q = self.qmap
+            ok = fused_force.internal_force(
+                self.u.x.array, self.u_n.x.array, self._cell_nodes, g.dNdX, g.N, g.Rinv, g.W,
+                self.element == "q1p0", *self._kernel_args, q.binv, q.eqps, q.binv_trial, q.eqps_trial,
+                q.tau_values, self._Fu, self._Finv, self._factor, self.theta_cells, self._f_all)
+            if not ok and self._failure is None:
+                # rank-local: the global kinetic-energy check of run() reports it
+                self._failure = f"non-finite stress or internal force at step {self.step_count + 1}"
+            if self.comm.size > 1:
+                self._ffun.x.scatter_reverse(ScatterMode.add)
+            return
         if self.theta is not None:
             self._update_theta()
         try:
@@ -239,29 +285,20 @@ class ExplicitDynamics:
         self.KE0 = self.kinetic_energy()
 
     def step(self, dt):
+        """One central-difference step of size dt [s] (velocity-Verlet form, see module doc)."""
         n = self.n_own
-        v = self.v.x.array[:n]
-        u_all = self.u.x.array
-        a, du, tmp = self.a, self.du, self._tmp
-        # half-step velocity, displacement increment
-        np.multiply(a, 0.5 * dt, out=tmp)
-        v += tmp
-        np.multiply(v, dt, out=du)
-        self.u_n.x.array[:] = u_all
+        v = self.v.x.array
+        # half-step velocity, displacement increment (u_n keeps the previous u, ghosts included)
+        w_old = fused_force.kick_drift(v, self.a, self.f, self.du, self.u.x.array, self.u_n.x.array, dt, n)
         if self.theta is not None:
             self.theta_n.x.array[:] = self.theta.x.array
-        u_all[:n] += du
-        self.u.x.scatter_forward()
-        w_old = np.dot(du, self.f)
+        if self.comm.size > 1:
+            self.u.x.scatter_forward()
         self._internal_force()
-        f = self.f
         # trapezoidal work of the internal forces. Constrained dofs have du = 0 (homogeneous
         # velocity BCs: fixed sliding walls), so the support reactions do no work: W_ext stays 0.
-        self.W_int += 0.5 * (w_old + np.dot(du, f))
-        np.multiply(f, self.free_minv, out=a)
-        np.multiply(a, -0.5 * dt, out=tmp)
-        np.negative(a, out=a)
-        v += tmp
+        w_new = fused_force.kick(v, self.a, self.f, self.free_minv, self.du, dt, n)
+        self.W_int += 0.5 * (w_old + w_new)
         self.t += dt
         self.step_count += 1
 
