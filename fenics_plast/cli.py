@@ -1,4 +1,4 @@
-"""Command line: ``fenics-plast run | point | keys``.
+"""Command line: ``fenics-plast run | point | keys | study | plot``.
 
 Exit status: 0 success; 1 the run failed (summary.json still written, with ``converged: false``
 and ``error``); 2 invalid scene file, bad arguments or a runner that cannot be imported (nothing
@@ -87,7 +87,10 @@ def cmd_run(args) -> int:
     t0 = time.perf_counter()
     status = EXIT_OK
     try:
-        results = runner(scene, output)
+        try:
+            results = runner(scene, output)
+        finally:
+            output.end_progress()       # the bar's line ends before any error message
         if results is None:
             results = {}
         summary.update(results)
@@ -239,6 +242,21 @@ def cmd_point(args) -> int:
 
 
 # ----------------------------------------------------------------------------------------------
+# plot
+
+
+def cmd_plot(args) -> int:
+    from .plots import PlotError, draw
+    try:
+        paths = draw(args.dir)
+    except PlotError as e:
+        _error(str(e))
+        return EXIT_USAGE
+    _say(f"fenics-plast plot: {len(paths)} figure(s): {', '.join(p.name for p in paths)} in {args.dir}")
+    return EXIT_OK
+
+
+# ----------------------------------------------------------------------------------------------
 # keys
 
 
@@ -286,6 +304,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     k = sub.add_parser("keys", help="print the scene key reference (docs/SCENE_KEYS.md)")
     k.set_defaults(func=cmd_keys)
+
+    pl = sub.add_parser("plot", help="redraw the PNG plots of a results folder",
+                        description="Redraws the scene kind's PNGs in DIR from its history.csv (and other "
+                                    "CSV files), reading the kind from summary.json.")
+    pl.add_argument("dir", help="results folder of `fenics-plast run` (summary.json, history.csv)")
+    pl.set_defaults(func=cmd_plot)
 
     from .study import add_study_arguments
     st = sub.add_parser("study", help="run combinations of scene-key overrides; tabulate cost and error",

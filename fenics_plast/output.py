@@ -53,7 +53,10 @@ class RunOutput:
     * ``plot_xy(name, x, ys, xlabel, ylabel)``: ``name``.png.
     * ``xdmf_path``: where fields go (``out_dir/fields.xdmf``).
     * ``finish(summary)``: summary.json, written last and atomically.
-    * ``log(msg)``: a progress line on stdout, rank 0 only.
+    * ``log(msg)``: a progress line on stdout, rank 0 only (through the progress bar if one is on).
+    * ``progress(total, label, ...)``: start the run's :class:`fenics_plast.progress.Progress`
+      (rank 0 prints); ``end_progress()`` (also done by ``finish``) ends it.
+    * ``draw_plots(kind, ...)``: the scene kind's PNGs from history.csv (:mod:`fenics_plast.plots`).
     """
 
     def __init__(self, out_dir: str | os.PathLike, comm=None):
@@ -69,6 +72,7 @@ class RunOutput:
         self._hist_file = None
         self._hist_writer = None
         self._hist_header: list[str] | None = None
+        self._progress = None
         self.finished = False
 
     # -- paths ---------------------------------------------------------------------------------
@@ -89,8 +93,24 @@ class RunOutput:
 
     # -- progress ------------------------------------------------------------------------------
     def log(self, msg: str) -> None:
-        if self.is_root:
+        if self._progress is not None:
+            self._progress.write(msg)
+        elif self.is_root:
             print(msg, flush=True)
+
+    def progress(self, total: float, label: str = "", **kwargs):
+        """Start (replacing any earlier one) and return the run's progress bar; ``kwargs`` go to
+        :class:`fenics_plast.progress.Progress` (what, unit, stream, is_tty, ...)."""
+        from .progress import Progress
+        self.end_progress()
+        self._progress = Progress(total, label, comm=self.comm, **kwargs)
+        return self._progress
+
+    def end_progress(self) -> None:
+        """Close the progress bar (final state, newline on a terminal); no-op without one."""
+        if self._progress is not None:
+            self._progress.close()
+            self._progress = None
 
     # -- tables --------------------------------------------------------------------------------
     def history(self, **row: Any) -> None:
@@ -166,9 +186,25 @@ class RunOutput:
         fig.savefig(path, dpi=120)
         return path
 
+    def draw_plots(self, kind: str, title: str | None = None, results: Mapping[str, Any] | None = None):
+        """The PNGs of scene kind ``kind`` from the files in out_dir; ``results``: the run's results
+        (reference lines). Rank 0 draws and returns the paths; other ranks return []. A plot that
+        fails is reported with ``log`` and does not fail the run (no rank-local raise)."""
+        if not self.is_root:
+            return []
+        from .plots import draw
+        if self._hist_file is not None:
+            self._hist_file.flush()
+        try:
+            return draw(self.out_dir, kind, title=title, summary=results)
+        except Exception as e:  # noqa: BLE001 - plots are a by-product; the run's results stand
+            self.log(f"warning: plots of {self.out_dir} not drawn: {type(e).__name__}: {e}")
+            return []
+
     # -- the end -------------------------------------------------------------------------------
     def finish(self, summary: Mapping[str, Any]) -> Path:
         """Write summary.json (last file of a run) atomically: tmp file then rename."""
+        self.end_progress()
         self.close_history()
         path = self.summary_path
         if self.is_root:

@@ -12,6 +12,9 @@
   and a last line from :meth:`close` if the final state was not printed yet.
 * Only rank 0 of ``comm`` prints (``comm=None``: serial, prints). No collective calls: ranks
   may call :meth:`update` a different number of times.
+* The environment variable ``FENICS_PLAST_PROGRESS`` = ``tty`` | ``plain`` | ``off`` overrides the
+  automatic choice (Open MPI hands its ranks a pseudo-terminal even when mpirun's own output goes
+  to a file: ``FENICS_PLAST_PROGRESS=plain mpirun ... > log``); ``TERM=dumb`` means plain.
 * Time left = (total - done) / rate, with the rate measured from the first :meth:`update`
   (call ``update(start_value)`` before the work starts, so set-up time does not count).
 
@@ -20,11 +23,14 @@ Knows nothing of physics; ``done`` and ``total`` are in any unit (load factor, Â
 from __future__ import annotations
 
 import math
+import os
 import sys
 import time
 from typing import Any, Callable, TextIO
 
-__all__ = ["Progress", "format_duration"]
+__all__ = ["Progress", "format_duration", "ENV_VAR"]
+
+ENV_VAR = "FENICS_PLAST_PROGRESS"
 
 
 def format_duration(seconds: float | None) -> str:
@@ -56,7 +62,8 @@ class Progress:
     what : name of the ``done`` quantity in the line ("load", "t").
     comm : mpi4py communicator (or anything with ``.rank``); None = serial.
     stream : text stream (default ``sys.stdout`` at construction).
-    is_tty : force the terminal / plain-line mode (default ``stream.isatty()``).
+    is_tty : force the terminal / plain-line mode (default: ``$FENICS_PLAST_PROGRESS``, else
+        ``stream.isatty()`` unless ``TERM=dumb``). ``FENICS_PLAST_PROGRESS=off`` silences rank 0 too.
     min_interval_s : terminal redraw throttle [s].
     every_fraction : plain-line step as a fraction of ``total``.
     every_s : plain-line interval when the fraction moves slowly [s].
@@ -75,11 +82,16 @@ class Progress:
         self.total = total
         self.label, self.what, self.unit = label, what, unit
         self.rank = 0 if comm is None else int(comm.rank)
-        self.enabled = self.rank == 0
+        mode = os.environ.get(ENV_VAR, "").strip().lower()
+        if mode not in ("", "tty", "plain", "off"):
+            raise ValueError(f"{ENV_VAR} must be tty, plain or off, got {mode!r}")
+        self.enabled = self.rank == 0 and mode != "off"
         self.stream = stream if stream is not None else sys.stdout
+        if is_tty is None and mode in ("tty", "plain"):
+            is_tty = mode == "tty"
         if is_tty is None:
             try:
-                is_tty = bool(self.stream.isatty())
+                is_tty = bool(self.stream.isatty()) and os.environ.get("TERM", "") != "dumb"
             except (AttributeError, ValueError):
                 is_tty = False
         self.is_tty = is_tty
@@ -103,6 +115,11 @@ class Progress:
     @property
     def fraction(self) -> float:
         return min(max(self.done / self.total, 0.0), 1.0)
+
+    @property
+    def finished(self) -> bool:
+        """done has reached total (to round-off: a load factor summed from steps)."""
+        return self.done >= self.total * (1.0 - 1e-9)
 
     def elapsed(self) -> float:
         """Seconds since construction."""
@@ -131,7 +148,7 @@ class Progress:
         parts.append(f"{what}{self.done:.4g}/{self.total:.4g}{unit}")
         parts += [f"{k.replace('_', ' ')} {_fmt(v)}" for k, v in self.fields.items()]
         parts.append(f"elapsed {format_duration(self.elapsed())}")
-        if self.closed:
+        if self.closed or self.finished:
             return "  ".join(parts)
         left = self.time_left()
         parts.append(f"left ~{format_duration(left)}" if left is not None else "left ?")
@@ -151,8 +168,7 @@ class Progress:
         if not self.enabled:
             return
         if self.is_tty:
-            finished = self.done >= self.total
-            if self._drawn_len == 0 or finished or now - self._last_draw >= self.min_interval_s:
+            if self._drawn_len == 0 or self.finished or now - self._last_draw >= self.min_interval_s:
                 self._draw(now)
         else:
             frac = self.fraction

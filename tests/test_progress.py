@@ -140,3 +140,88 @@ def test_format_duration_and_bad_total():
         ["4s", "1m05s", "1h02m", "?", "?"]
     with pytest.raises(ValueError, match="positive"):
         Progress(0.0)
+
+
+class TtyStream(io.StringIO):
+    def isatty(self):
+        return True
+
+
+@pytest.mark.parametrize("mode, expect", [("plain", "plain"), ("tty", "tty"), ("off", ""), ("", "tty")])
+def test_environment_override(monkeypatch, mode, expect):
+    monkeypatch.setenv("FENICS_PLAST_PROGRESS", mode)
+    monkeypatch.setenv("TERM", "xterm")
+    out = TtyStream()
+    p = Progress(2.0, "x", stream=out)
+    p.update(1.0)
+    p.close()
+    text = out.getvalue()
+    if expect == "":
+        assert text == ""
+    elif expect == "tty":
+        assert text.startswith("\r") and text.endswith("\n")
+    else:
+        assert "\r" not in text and len(text.splitlines()) == 1
+    monkeypatch.setenv("FENICS_PLAST_PROGRESS", "fancy")
+    with pytest.raises(ValueError, match="FENICS_PLAST_PROGRESS"):
+        Progress(1.0)
+
+
+def test_run_output_logs_through_the_bar(tmp_path):
+    from fenics_plast.output import RunOutput
+    out = TtyStream()
+    ro = RunOutput(tmp_path)
+    bar = ro.progress(1.0, "s", what="load", stream=out, is_tty=True)
+    bar.update(0.5, inc=1)
+    ro.log("increment 1 done")
+    ro.finish({"converged": True})          # ends the bar: final frame and a newline
+    assert ro._progress is None and bar.closed
+    text = out.getvalue()
+    assert text.endswith("\n") and "\rincrement 1 done" in text
+    assert text.split("\n")[-2].split("\r")[-1].startswith("s  [############")
+
+
+CYLINDER = """
+[scene]
+name = "ring"
+kind = "thick_cylinder"
+[mesh]
+geometry = "plane_strain"
+inner_radius = 10.0
+outer_radius = 20.0
+cells_radial = 3
+cells_circumferential = 3
+[material]
+E = 200e3
+nu = 0.3
+[material.hardening]
+law = "linear"
+yield_stress = 250.0
+modulus = 0.0
+[loading]
+pressure = 1000.0
+[solver]
+increments = 5
+[output]
+plots = false
+"""
+
+
+def test_static_run_reports_increments_and_newton_iterations(tmp_path, capsys, monkeypatch):
+    """The quasi-static solver drives the bar: plain lines (captured output is not a terminal)
+    whose last state agrees with summary.json."""
+    import json
+    from fenics_plast import cli
+    monkeypatch.delenv("FENICS_PLAST_PROGRESS", raising=False)
+    scene = tmp_path / "ring.toml"
+    scene.write_text(CYLINDER)
+    assert cli.main(["run", str(scene), "--out", str(tmp_path / "out")]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("ring ")]
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert lines and all("\r" not in ln for ln in lines)
+    pct = [float(re.search(r"(\d+\.\d)%", ln).group(1)) for ln in lines]
+    assert pct[0] == 0.0 and pct[-1] == 100.0 and pct == sorted(pct)
+    last = lines[-1]
+    assert f"inc {summary['increments']} " in last
+    assert f"newton total {summary['newton_iterations']} " in last
+    assert "left" not in last and "elapsed" in last     # close(): the final line, no estimate

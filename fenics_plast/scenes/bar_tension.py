@@ -53,7 +53,7 @@ def run(scene, output) -> dict:
     material = Material.from_scene(scene.material)
     R, half = m.radius, 0.5 * m.length
     imp = m.imperfection
-    opts = newton_options(sv)
+    opts = dict(newton_options(sv), progress=output.progress(1.0, scene.name, what="load"))
     t0 = time.perf_counter()
     s, info = build(comm, R, half, m.cells_radial * refine, m.cells_axial * refine, imp, material,
                     element=m.element, solver_options=opts, log=output.log)
@@ -126,7 +126,5 @@ def run(scene, output) -> dict:
         if out["xdmf"] is not None:
             out["xdmf"].close()
         if getattr(scene.output, "plots", True) and len(hist["force_kN"]) > 1:
-            output.plot_xy("force_elongation", hist["elongation_mm"], {"F": hist["force_kN"]},
-                           xlabel="elongation [mm]", ylabel="force [kN]",
-                           title=f"{scene.name}: round bar in tension")
+            output.draw_plots("bar_tension", title=scene.name)
     return results(True)

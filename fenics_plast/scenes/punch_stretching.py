@@ -107,7 +107,7 @@ def run(scene, output) -> dict:
     law = ct.law if ct is not None else "quasi-coulomb"
     penalty = ct.penalty if ct is not None else None
     tpen = ct.tangential_penalty if ct is not None else None
-    opts = newton_options(sv)
+    opts = dict(newton_options(sv), progress=output.progress(1.0, scene.name, what="load"))
     t0 = time.perf_counter()
     travel = ld.travel
     s, c, info = build(comm, blank_radius=m.blank_radius, thickness=m.thickness,
@@ -170,7 +170,7 @@ def run(scene, output) -> dict:
         output.history(increment=rec["increment"], load_factor=solver.lam_converged, punch_displacement_mm=d,
                        punch_force_kN=F, die_force_kN=Fd, max_penetration_mm=pen,
                        newton_iterations=rec["iterations"])
-        if abs(solver.lam_converged - lam_20) < 1e-12:
+        if abs(solver.lam_converged - lam_20) < 1e-12 and travel >= THICKNESS_TRAVEL_MM:  # (no 20 mm state below)
             thick[THICKNESS_TRAVEL_MM] = faces.thickness_strain(t_blank)
         out["count"] += 1
         if out["count"] % out["every"] == 0 or solver.lam_converged >= 1 - 1e-12:
@@ -209,8 +209,7 @@ def run(scene, output) -> dict:
         thick["final"] = faces.thickness_strain(t_blank)
         d_final = travel * s.lam_converged
         cols = dict(travel_mm=[], r0_mm=[], thickness_strain=[])
-        curves = {}
-        for key, label in ((THICKNESS_TRAVEL_MM, f"{THICKNESS_TRAVEL_MM:g} mm"), ("final", f"{d_final:.3g} mm")):
+        for key in (THICKNESS_TRAVEL_MM, "final"):
             if key not in thick or (key != "final" and abs(d_final - THICKNESS_TRAVEL_MM) < 1e-9):
                 continue
             r0, es = thick[key]
@@ -218,15 +217,10 @@ def run(scene, output) -> dict:
             cols["travel_mm"] += [tv] * len(r0)
             cols["r0_mm"] += list(r0)
             cols["thickness_strain"] += list(es)
-            curves[label] = (r0, es)
         output.write_csv("thickness_strain", cols)
-        if getattr(scene.output, "plots", True) and comm.rank == 0:
-            if len(hist["F"]) > 1:
-                output.plot_xy("punch_force", hist["d"], {"F": hist["F"]}, xlabel="punch displacement [mm]",
-                               ylabel="punch force [kN]",
-                               title=f"{scene.name}: mu = {friction:g} ({law})")
-            output.plot_xy("thickness_strain", None, curves, xlabel="initial radius r0 [mm]",
-                           ylabel="thickness strain ln(t/t0)", title=f"{scene.name}: mu = {friction:g}")
+        if getattr(scene.output, "plots", True):
+            output.draw_plots("punch_stretching", title=scene.name,
+                              results=dict(friction=friction, contact_law=law))
 
     try:
         if lam_20 < 1.0:

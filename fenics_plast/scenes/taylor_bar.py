@@ -127,13 +127,10 @@ def simulate(scene, output=None, comm=MPI.COMM_WORLD, log=None):
         converged=True,
     )
     if output is not None and out is not None and bool(out.plots):
-        t = np.asarray(hist["time_us"])
-        output.plot_xy("energies", t, {k.replace("_J", ""): np.asarray(hist[k]) for k in
-                                       ("kinetic_energy_J", "elastic_energy_J", "plastic_dissipation_J")},
-                       "time [us]", "energy [J]", title="Taylor bar: energies")
-        output.plot_xy("shape", t, {"length [mm]": np.asarray(hist["length_mm"]),
-                                    "impact-face radius [mm]": np.asarray(hist["radius_mm"])},
-                       "time [us]", "mm", title="Taylor bar: length and impact-face radius")
+        from fenics_plast.plots import cells_table     # final_shape.csv: deformed cells and their eqps
+        eq = solver.qmap.cell_mean(solver.qmap.eqps, name="eqps")
+        output.write_csv("final_shape", cells_table(solver.V, solver.nodal_positions(), eq, "eqps"))
+        output.draw_plots("taylor_bar", title=scene.name)
     return results, solver
 
 

@@ -97,7 +97,7 @@ def run(scene, output) -> dict:
     if m.geometry != "plane_strain":
         output.log("thick_cylinder: the ring is modelled in plane strain (mesh.geometry ignored)")
     material = Material.from_scene(scene.material)
-    opts = newton_options(sv)
+    opts = dict(newton_options(sv), progress=output.progress(1.0, scene.name, what="load"))
     t0 = time.perf_counter()
 
     def on_increment(solver, d, p):
@@ -122,9 +122,7 @@ def run(scene, output) -> dict:
     if hard is not None and getattr(hard, "law", None) == "linear" and getattr(hard, "modulus", 0) == 0:
         res["analytic_limit_pressure_MPa"] = limit_pressure(hard.yield_stress, m.inner_radius, m.outer_radius)
     if getattr(scene.output, "plots", True):
-        output.plot_xy("pressure_displacement", hist["inner_displacement_mm"], {"p": hist["pressure_MPa"]},
-                       xlabel="inner radial displacement [mm]", ylabel="internal pressure [MPa]",
-                       title=f"{scene.name}: thick cylinder")
+        output.draw_plots("thick_cylinder", title=scene.name, results=res)
     if not r["converged"]:
         raise RunError(str(r["error"]), results=res)
     return res

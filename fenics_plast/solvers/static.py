@@ -32,7 +32,7 @@ class StaticSolver:
     """Newton (SNES newtonls + line search, MUMPS LU) with incremental loading."""
 
     def __init__(self, kin, material, element="q1p0", rtol=1e-9, atol=1e-8, max_iterations=25,
-                 linesearch="bt", stol=0.0, verbose=True, log=None):
+                 linesearch="bt", stol=0.0, verbose=True, log=None, progress=None):
         if element not in ("q1p0", "q1"):
             raise ValueError(f"element must be 'q1p0' or 'q1', got {element!r}")
         self.kin = kin
@@ -43,6 +43,7 @@ class StaticSolver:
         self.mixed = element == "q1p0"
         self.verbose = verbose
         self._log = log
+        self.progress = progress    # fenics_plast.progress.Progress over the load factor (total 1), or None
         cell = mesh.ufl_cell()
         Ue = ufl.VectorElement("Lagrange", cell, 1)
         if self.mixed:
@@ -200,6 +201,8 @@ class StaticSolver:
 
     def _monitor(self, snes, its, norm):
         self.norms.append(float(norm))
+        if self.progress is not None:       # live Newton count within the increment (throttled)
+            self.progress.update(self.lam_converged, newton=its)
 
     def _set_state(self, x):
         # SNES trial vectors (line search: x - s dx) carry stale ghost values; apply_lifting reads them
@@ -320,6 +323,9 @@ class StaticSolver:
         span = lam_end - self.lam_converged
         dl = min(span / increments, max_increment)
         prev_step = None
+        if self.progress is not None:
+            self.progress.update(self.lam_converged, inc=len(self.increments), newton=0,
+                                 newton_total=self.total_iterations, cutbacks=len(self.cutbacks))
         while self.lam_converged < lam_end - 1e-12 * max(1.0, abs(lam_end)):
             dl = min(dl, max_increment, lam_end - self.lam_converged)
             lam = self.lam_converged + dl
@@ -347,6 +353,9 @@ class StaticSolver:
                 self.increments.append(rec)
                 self.log(f"increment {rec['increment']:4d}  load {lam:.6g} (step {dl:.3g})  "
                          f"newton {its:2d}  |R| {norms[0]:.3e} -> {norms[-1]:.3e}  ({dt:.2f} s)")
+                if self.progress is not None:
+                    self.progress.update(lam, inc=rec["increment"], newton=its,
+                                         newton_total=self.total_iterations, cutbacks=len(self.cutbacks))
                 prev_step = dl
                 if callback is not None and callback(self):
                     return False

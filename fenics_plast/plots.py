@@ -1,0 +1,295 @@
+"""The PNG plots of every scene kind, drawn from the CSV files of a results folder.
+
+One table, :data:`FIGURES`, says which figures a scene kind has and which columns they read; the
+runners (through :meth:`fenics_plast.output.RunOutput.draw_plots`, after the run) and
+``fenics-plast plot DIR`` both call :func:`draw`, so both draw the same figures.
+
+* :class:`Lines`: curves ``y`` against ``x`` from a CSV of the folder (history.csv by default),
+  optionally one curve per value of a ``group`` column, and horizontal reference lines from
+  summary keys.
+* :class:`Cells`: the deformed mesh (one quadrilateral per CSV row: columns x1..y4 in mm, cyclic
+  order) coloured by a cell value; written by the runner with :func:`cells_table`.
+
+A figure whose CSV is absent (e.g. no final_shape.csv) is left out; a missing column of a CSV that
+is present is an error (:class:`PlotError`). Drawn with matplotlib's Agg backend (no display).
+"""
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+__all__ = ["FIGURES", "Lines", "Cells", "PlotError", "draw", "read_csv", "cells_table"]
+
+
+class PlotError(ValueError):
+    """A results folder that cannot be plotted (missing files or columns, unknown kind)."""
+
+
+@dataclass(frozen=True)
+class Lines:
+    """``name``.png: curves ``ys`` (label -> column) against column ``x`` of ``source``."""
+    name: str
+    x: str
+    ys: Mapping[str, str]
+    xlabel: str
+    ylabel: str
+    title: str
+    source: str = "history.csv"
+    group: str | None = None          # one curve per distinct value of this column (label: value + unit)
+    group_unit: str = ""
+    hlines: Mapping[str, str] = field(default_factory=dict)   # label -> summary.json key
+    note: str = ""                    # added to the title, formatted with the summary ("mu = {friction:g}")
+
+
+@dataclass(frozen=True)
+class Cells:
+    """``name``.png: polygons (x1, y1, ..., x4, y4) of ``source`` coloured by column ``value``."""
+    name: str
+    value: str
+    label: str
+    title: str
+    source: str
+    mirror: bool = False              # also draw x -> -x (axisymmetric section about the axis)
+    xlabel: str = "r [mm]"
+    ylabel: str = "z [mm]"
+
+
+FIGURES: dict[str, list] = {
+    "bar_tension": [
+        Lines("force_elongation", "elongation_mm", {"force": "force_kN"},
+              "elongation [mm]", "force [kN]", "Round bar in tension: force"),
+        Lines("neck_radius", "elongation_mm", {"neck radius": "neck_radius_mm"},
+              "elongation [mm]", "smallest radius [mm]", "Round bar in tension: neck radius"),
+    ],
+    "thick_cylinder": [
+        Lines("pressure_displacement", "inner_displacement_mm", {"computed": "pressure_MPa"},
+              "inner radial displacement [mm]", "internal pressure [MPa]", "Thick-walled cylinder: internal pressure",
+              hlines={"small-strain limit pressure": "analytic_limit_pressure_MPa"}),
+    ],
+    "punch_stretching": [
+        Lines("punch_force", "punch_displacement_mm", {"punch force": "punch_force_kN"},
+              "punch displacement [mm]", "punch force [kN]", "Hemispherical punch: force",
+              note="mu = {friction:g}, {contact_law}"),
+        Lines("thickness_strain", "r0_mm", {"": "thickness_strain"},
+              "initial radius r0 [mm]", "thickness strain ln(t/t0)", "Hemispherical punch: thickness strain",
+              source="thickness_strain.csv", group="travel_mm", group_unit="mm travel",
+              note="mu = {friction:g}, {contact_law}"),
+    ],
+    "taylor_bar": [
+        Lines("energies", "time_us", {"kinetic": "kinetic_energy_J", "elastic": "elastic_energy_J",
+                                      "plastic dissipation": "plastic_dissipation_J"},
+              "time [us]", "energy [J]", "Taylor bar: energies"),
+        Lines("shape", "time_us", {"length [mm]": "length_mm", "impact-face radius [mm]": "radius_mm"},
+              "time [us]", "mm", "Taylor bar: length and impact-face radius"),
+        Cells("final_shape", "eqps", "equivalent plastic strain", "Taylor bar: final shape (cell-mean eqps)",
+              source="final_shape.csv", mirror=True),
+    ],
+}
+
+
+# ----------------------------------------------------------------------------------------------
+# reading
+
+
+def read_csv(path: str | Path) -> dict[str, np.ndarray]:
+    """CSV with a header row -> {column: float array}; empty cells -> NaN."""
+    path = Path(path)
+    with open(path, newline="", encoding="utf-8") as f:
+        rows = list(csv.reader(f))
+    if not rows:
+        raise PlotError(f"{path}: empty file (no header)")
+    header, body = rows[0], [r for r in rows[1:] if r]
+    cols = {}
+    for j, name in enumerate(header):
+        vals = []
+        for i, r in enumerate(body):
+            s = r[j].strip() if j < len(r) else ""
+            try:
+                vals.append(float(s) if s else math.nan)
+            except ValueError:
+                raise PlotError(f"{path}: row {i + 2}, column {name!r}: not a number: {s!r}") from None
+        cols[name] = np.asarray(vals, dtype=float)
+    return cols
+
+
+def _read_summary(out_dir: Path) -> dict:
+    path = out_dir / "summary.json"
+    try:
+        with open(path, encoding="utf-8") as f:
+            return json.load(f)
+    except FileNotFoundError:
+        raise PlotError(f"{out_dir}: no summary.json (not a results folder of `fenics-plast run`)") from None
+    except json.JSONDecodeError as e:
+        raise PlotError(f"{path}: not valid JSON: {e}") from None
+
+
+# ----------------------------------------------------------------------------------------------
+# drawing
+
+
+def draw(out_dir: str | Path, kind: str | None = None, title: str | None = None,
+         summary: Mapping[str, Any] | None = None, render: bool = True) -> list[Path]:
+    """Draw the figures of scene kind ``kind`` into ``out_dir``; with ``kind=None`` the kind, title
+    and reference values come from the folder's summary.json (``fenics-plast plot``).
+
+    title : prefix of every figure's title (default: summary's ``scene``).
+    summary : results used for reference lines (summary.json's when kind is None).
+    render : False returns the paths without drawing (MPI ranks other than 0).
+    Returns the PNG paths written. Raises :class:`PlotError` for a folder without history.csv,
+    without a kind, of an unknown kind, or with a missing column.
+    """
+    out_dir = Path(out_dir)
+    if not out_dir.is_dir():
+        raise PlotError(f"{out_dir}: no such directory")
+    if summary is None and kind is None:
+        summary = _read_summary(out_dir)
+    summary = dict(summary or {})
+    kind = kind or summary.get("kind")
+    if not kind:
+        raise PlotError(f"{out_dir}/summary.json has no 'kind'")
+    if kind not in FIGURES:
+        raise PlotError(f"no plots defined for scene kind {kind!r} (known: {', '.join(FIGURES)})")
+    if not (out_dir / "history.csv").exists():
+        raise PlotError(f"{out_dir}: no history.csv (not a results folder of `fenics-plast run`)")
+    title = title if title is not None else summary.get("scene")
+    tables: dict[str, dict[str, np.ndarray]] = {}
+    paths = []
+    for fig in FIGURES[kind]:
+        src = out_dir / fig.source
+        if not src.exists():
+            continue
+        if fig.source not in tables:
+            tables[fig.source] = read_csv(src)
+        data = tables[fig.source]
+        need = ([fig.x, *fig.ys.values()] + ([fig.group] if fig.group else [])
+                if isinstance(fig, Lines) else [fig.value] + _poly_columns())
+        missing = [c for c in need if c not in data]
+        if missing:
+            raise PlotError(f"{src}: no column(s) {', '.join(missing)} for {fig.name}.png "
+                            f"(columns: {', '.join(data)})")
+        path = out_dir / f"{fig.name}.png"
+        if render:
+            full_title = fig.title + (f"\n{title}" if title else "") + _note(fig, summary)
+            if isinstance(fig, Lines):
+                _draw_lines(path, fig, data, summary, full_title)
+            else:
+                _draw_cells(path, fig, data, full_title)
+        paths.append(path)
+    return paths
+
+
+def _note(fig, summary) -> str:
+    note = getattr(fig, "note", "")
+    try:
+        return f" ({note.format(**summary)})" if note else ""
+    except (KeyError, ValueError, TypeError):     # summary without those keys: no note
+        return ""
+
+
+def _figure(size=(6.0, 4.2)):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=size)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _draw_lines(path: Path, spec: Lines, data, summary, title) -> None:
+    fig = _figure()
+    ax = fig.add_subplot()
+    x = data[spec.x]
+    style = "o-" if len(x) < 3 else "-"
+    n = 0
+    if spec.group:
+        g = data[spec.group]
+        for v in [v for v in dict.fromkeys(g.tolist()) if math.isfinite(v)]:
+            sel = g == v
+            for label, col in spec.ys.items():
+                lab = f"{v:g} {spec.group_unit}" + (f": {label}" if label else "")
+                ax.plot(x[sel], data[col][sel], style, label=lab.strip())
+                n += 1
+    else:
+        for label, col in spec.ys.items():
+            ax.plot(x, data[col], style, label=label)
+            n += 1
+    for label, key in spec.hlines.items():
+        v = summary.get(key)
+        if isinstance(v, (int, float)) and math.isfinite(v):
+            ax.axhline(v, color="k", ls="--", lw=1.0, label=f"{label} ({v:.4g})")
+            n += 1
+    ax.set_xlabel(spec.xlabel)
+    ax.set_ylabel(spec.ylabel)
+    ax.set_title(title, fontsize=10)
+    ax.grid(True, alpha=0.3)
+    if n > 1:
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+def _poly_columns() -> list[str]:
+    return [f"{c}{k}" for k in range(1, 5) for c in "xy"]
+
+
+def _draw_cells(path: Path, spec: Cells, data, title) -> None:
+    from matplotlib.collections import PolyCollection
+    xy = np.stack([np.column_stack([data[f"x{k}"], data[f"y{k}"]]) for k in range(1, 5)], axis=1)
+    val = data[spec.value]
+    polys, vals = [xy], [val]
+    if spec.mirror:
+        m = xy.copy()
+        m[:, :, 0] *= -1.0
+        polys.append(m)
+        vals.append(val)
+    xy, val = np.concatenate(polys), np.concatenate(vals)
+    span = np.ptp(xy[:, :, 1]) if xy.size else 1.0
+    width = np.ptp(xy[:, :, 0]) if xy.size else 1.0
+    h = 6.0
+    fig = _figure(size=(min(max(2.5 + h * width / max(span, 1e-300), 4.0), 10.0), h))
+    ax = fig.add_subplot()
+    pc = PolyCollection(xy, array=val, cmap="viridis", edgecolors="k", linewidths=0.2)
+    ax.add_collection(pc)
+    ax.autoscale_view()
+    ax.set_aspect("equal")
+    fig.colorbar(pc, ax=ax, label=spec.label)
+    ax.set_xlabel(spec.xlabel)
+    ax.set_ylabel(spec.ylabel)
+    vmax = np.nanmax(val) if val.size else math.nan
+    ax.set_title(f"{title}, max {spec.value} {vmax:.3g}", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+# ----------------------------------------------------------------------------------------------
+# the data of a Cells figure
+
+
+_QUAD_CYCLE = [0, 1, 3, 2]      # basix quadrilateral vertex order is tensor-product
+
+
+def cells_table(V, positions, cell_values, value_name: str) -> dict[str, np.ndarray]:
+    """Columns x1, y1, ..., x4, y4 [mm] (cyclic vertex order) and ``value_name`` of every cell,
+    gathered on rank 0 (other ranks get empty columns), for ``RunOutput.write_csv``.
+
+    V : the P1 vector FunctionSpace of the nodes (dolfinx; ``V.dofmap.list``: cell -> node block).
+    positions : (n_local_nodes, 2) current node positions, indexed like V's dof blocks.
+    cell_values : DG0 Function (one value per cell). Collective over V's communicator.
+    """
+    mesh = V.mesh
+    tdim = mesh.topology.dim
+    n_own = mesh.topology.index_map(tdim).size_local
+    nodes = np.asarray(V.dofmap.list.array).reshape(-1, 4)[:n_own][:, _QUAD_CYCLE]
+    xy = np.asarray(positions)[nodes, :2].reshape(n_own, 8)
+    dg = np.asarray(cell_values.function_space.dofmap.list.array).reshape(-1)[:n_own]
+    val = np.asarray(cell_values.x.array)[dg]
+    local = np.column_stack([xy, val])
+    parts = mesh.comm.gather(local, root=0)
+    names = [f"{c}{k}" for k in range(1, 5) for c in "xy"] + [value_name]
+    table = np.vstack(parts) if parts is not None else np.zeros((0, len(names)))
+    return {n: table[:, j] for j, n in enumerate(names)}
