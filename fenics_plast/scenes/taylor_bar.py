@@ -93,7 +93,10 @@ def simulate(scene, output=None, comm=MPI.COMM_WORLD, log=None):
 
     steps = scene.solver.get("steps", None)
     try:
-        stats = solver.run(end_time, dt_safety=scene.solver.dt_safety, steps=steps, rows=rows, on_row=on_row)
+        bar = (output.progress(scene.loading.end_time_us, scene.name, what="t", unit="us")
+               if output is not None else None)
+        stats = solver.run(end_time, dt_safety=scene.solver.dt_safety, steps=steps, rows=rows, on_row=on_row,
+                           bar=bar)
     finally:
         if xdmf is not None:
             xdmf.close()

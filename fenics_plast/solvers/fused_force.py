@@ -82,17 +82,17 @@ def _cbrt(r):
 
 
 @_njit
-def _deformation(u, cell_dofs, dNdX, N, Rinv, c, q):
-    """F at point q of cell c: returns (F_rr, F_rz, F_zr, F_zz, F_hh)."""
+def _deformation(ue, dNdX, N, Rinv, c, q):
+    """F at point q of cell c from the cell's nodal displacements ue (8,) = (u_r, u_z) per node.
+    Returns (F_rr, F_rz, F_zr, F_zz, F_hh)."""
     frr = 1.0
     frz = 0.0
     fzr = 0.0
     fzz = 1.0
     fhh = 1.0
     for a in range(4):
-        node = cell_dofs[c, a]
-        ur = u[2 * node]
-        uz = u[2 * node + 1]
+        ur = ue[2 * a]
+        uz = ue[2 * a + 1]
         gr = dNdX[c, q, a, 0]
         gz = dNdX[c, q, a, 1]
         frr += ur * gr
@@ -109,14 +109,22 @@ def _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, the
     nc, nq = W.shape
     J = np.empty(nq)
     J_n = np.empty(nq)
+    ue = np.empty(8)
+    ue_n = np.empty(8)
     for c in range(nc):
+        for a in range(4):
+            node = cell_dofs[c, a]
+            ue[2 * a] = u[2 * node]
+            ue[2 * a + 1] = u[2 * node + 1]
+            ue_n[2 * a] = u_n[2 * node]
+            ue_n[2 * a + 1] = u_n[2 * node + 1]
         th = 0.0
         th_n = 0.0
         wsum = 0.0
         for q in range(nq):
             p = c * nq + q
-            frr, frz, fzr, fzz, fhh = _deformation(u, cell_dofs, dNdX, N, Rinv, c, q)
-            grr, grz, gzr, gzz, ghh = _deformation(u_n, cell_dofs, dNdX, N, Rinv, c, q)
+            frr, frz, fzr, fzz, fhh = _deformation(ue, dNdX, N, Rinv, c, q)
+            grr, grz, gzr, gzz, ghh = _deformation(ue_n, dNdX, N, Rinv, c, q)
             det = frr * fzz - frz * fzr
             det_n = grr * gzz - grz * gzr
             J[q] = det * fhh
@@ -227,3 +235,23 @@ def kick(v, a, f, free_minv, du, dt, n):
         v[i] += 0.5 * dt * a[i]
         w += du[i] * f[i]
     return w
+
+
+@_njit
+def advance(nsteps, dt, v, a, free_minv, du, n, force_args):
+    """``nsteps`` central-difference steps of size dt in one call (serial runs).
+
+    force_args : the arguments of :func:`internal_force` (u and u_n first, f last), whose arrays are
+    updated in place. Returns (internal work increment [N mm], steps done, finite): stops after the
+    first step whose stress or force is not finite.
+    """
+    u, u_n, f = force_args[0], force_args[1], force_args[-1]
+    w = 0.0
+    for k in range(nsteps):
+        w_old = kick_drift(v, a, f, du, u, u_n, dt, n)
+        ok = internal_force(*force_args)
+        w_new = kick(v, a, f, free_minv, du, dt, n)
+        w += 0.5 * (w_old + w_new)
+        if not ok:
+            return w, k + 1, False
+    return w, nsteps, True
