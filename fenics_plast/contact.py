@@ -226,7 +226,7 @@ class ContactPair:
         x = c.X + s.u
         g, N = tool.gap(x, lam)
         self.g, self.N = g, N
-        self.p = ufl.conditional(ufl.lt(g, 0.0), -c.penalty * g, 0.0)
+        self.p = ufl.conditional(ufl.lt(g, 0.0), -c.penalty_c * g, 0.0)
         w = self.omega
         v = s.v
         traction = self.p * N
@@ -244,7 +244,7 @@ class ContactPair:
                 bound = c.friction * h[4]
                 active = ufl.conditional(ufl.lt(g, 0.0), 1.0, 0.0)
             T = ufl.as_vector([Nf[1], -Nf[0]])
-            t_tr = ufl.dot(T, t_n) - c.tangential_penalty * ufl.dot(T, ds_rel)
+            t_tr = ufl.dot(T, t_n) - c.tangential_penalty_c * ufl.dot(T, ds_rel)
             t = ufl.conditional(ufl.gt(t_tr, bound), bound,
                                 ufl.conditional(ufl.lt(t_tr, -bound), -bound, t_tr))
             self.t_scalar = active * t
@@ -364,6 +364,9 @@ class PenaltyContact:
         mesh = solver.mesh
         self.penalty = float(penalty)
         self.tangential_penalty = float(tangential_penalty if tangential_penalty else penalty)
+        # as Constants in the forms: a new penalty value needs no new JIT compilation
+        self.penalty_c = fem.Constant(mesh, PETSc.ScalarType(self.penalty))
+        self.tangential_penalty_c = fem.Constant(mesh, PETSc.ScalarType(self.tangential_penalty))
         self.friction = float(friction)
         self.law = law
         kin = solver.kin

@@ -26,6 +26,9 @@ from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 from fenics_plast.errors import RunError
 
 _prefix_counter = itertools.count()
+MUMPS_WORKSPACE_ERRORS = (-8, -9, -11, -12, -14)   # INFOG(1): a MUMPS work array too small
+MUMPS_MAX_ICNTL14 = 5000    # largest ICNTL(14) [% extra workspace] tried before giving up (start: 100)
+ROUNDOFF_FACTOR = 10.0      # safety factor of the residual round-off floor (see StaticSolver._jacobian)
 
 
 class StaticSolver:
@@ -94,6 +97,7 @@ class StaticSolver:
         self.total_iterations = 0
         self.cutbacks = []      # failed attempts (load_factor, step, iterations, reason)
         self.total_iterations_failed = 0
+        self.mumps_workspace_raises = []    # (load_factor, infog1, icntl14) per ICNTL(14) raise
 
     # -- problem definition -------------------------------------------------------------------
     def log(self, msg):
@@ -186,6 +190,8 @@ class StaticSolver:
             "mat_mumps_icntl_14": 100, "ksp_error_if_not_converged": False,
         }.items():
             opts[self.prefix + k] = v
+        xg = self.mesh.geometry.x
+        self._extent = self.comm.allreduce(float(np.abs(xg).max()) if xg.size else 0.0, op=MPI.MAX)
         self.snes = snes = PETSc.SNES().create(self.comm)
         snes.setOptionsPrefix(self.prefix)
         snes.setFunction(self._residual, self.b)
@@ -234,6 +240,11 @@ class StaticSolver:
         A.zeroEntries()
         fpetsc.assemble_matrix(A, self.J_form, bcs=self.bcs)
         A.assemble()
+        # Round-off floor of the residual [N]: eps |A|_inf (extent + |x|_inf) x ROUNDOFF_FACTOR. A nearly
+        # incompressible material (bulk modulus >> shear modulus) or a stiff contact penalty lifts it
+        # above atol, where Newton stalls (measured: 0.2 to 2 x the estimate); see _at_roundoff.
+        self.roundoff_floor = ROUNDOFF_FACTOR * np.finfo(float).eps * A.norm(PETSc.NormType.INFINITY) * (
+            self._extent + x.norm(PETSc.NormType.INFINITY))
 
     # -- loading ------------------------------------------------------------------------------
     def set_load(self, lam):
@@ -276,6 +287,8 @@ class StaticSolver:
         self._bad_update = bad
         ok = reason > 0 and not bad and all(np.isfinite(self.norms))
         why = _REASONS.get(reason, str(reason))
+        if not ok and not bad and ksp_reason >= 0 and self._at_roundoff():
+            ok, why = True, f"{why}, residual below its round-off floor {self.roundoff_floor:.3g} N"
         if self._bad_update:
             why = "material update failed: " + self._bad_message
         elif ksp_reason < 0:
@@ -295,7 +308,51 @@ class StaticSolver:
         except Exception:  # noqa: BLE001
             return ""
 
+    def _raise_mumps_workspace(self):
+        """After a failed solve: if MUMPS ran out of workspace (INFOG(1) in MUMPS_WORKSPACE_ERRORS),
+        double ICNTL(14) (extra workspace in %, at least 20) and return True: retry the same step.
+        Raises RunError when ICNTL(14) would exceed MUMPS_MAX_ICNTL14; False for any other failure."""
+        ksp = self.snes.getKSP()
+        if ksp.getConvergedReason() >= 0:
+            return False
+        try:
+            F = ksp.getPC().getFactorMatrix()
+            info, icntl14 = F.getMumpsInfog(1), F.getMumpsIcntl(14)
+        except Exception:  # noqa: BLE001 - not MUMPS, or no factor
+            return False
+        if info not in MUMPS_WORKSPACE_ERRORS:
+            return False
+        new = max(2 * icntl14, 20)
+        if new > MUMPS_MAX_ICNTL14:
+            raise RunError(
+                f"static solver: the direct solver MUMPS ran out of workspace (INFOG(1) = {info}) at load "
+                f"factor {self.lam:.6g} even with ICNTL(14) = {icntl14} % extra workspace: the linear system "
+                f"is extremely ill-conditioned (Poisson's ratio too close to 0.5, or a huge contact penalty?). "
+                f"{len(self.increments)} increments converged up to load factor {self.lam_converged:.6g}.",
+                results={"converged": False, "increments": len(self.increments),
+                         "load_factor": self.lam_converged})
+        self.log(f"  MUMPS ran out of workspace (INFOG(1) = {info}) at load {self.lam:.6g}: "
+                 f"ICNTL(14) {icntl14} -> {new} %, same step again")
+        PETSc.Options()[self.prefix + "mat_mumps_icntl_14"] = new
+        ksp.getPC().reset()             # the next set-up builds a new factor with the new option
+        ksp.setFromOptions()
+        self.mumps_workspace_raises.append(dict(load_factor=self.lam, infog1=info, icntl14=new))
+        return True
+
+    def _at_roundoff(self):
+        """Whether the residual at SNES's final iterate is below the round-off floor (collective): Newton
+        stalled where the arithmetic cannot do better, which counts as converged."""
+        if not self.roundoff_floor > 0.0:
+            return False
+        self._residual(self.snes, self.x, self.b)
+        r = self.b.norm()                 # NaN on every rank if the update failed on one
+        if not np.isfinite(r) or r > self.roundoff_floor:
+            return False
+        self.norms.append(float(r))
+        return True
+
     force_scale = 0.0
+    roundoff_floor = 0.0    # residual round-off estimate [N], updated with every Jacobian
 
     def commit(self):
         self.force_scale = self.internal_force_norm()
@@ -331,6 +388,8 @@ class StaticSolver:
             lam = self.lam_converged + dl
             t0 = time.perf_counter()
             ok, its, why = self.solve_increment(lam, prev_step)
+            while not ok and self._raise_mumps_workspace():   # same step with more MUMPS workspace
+                ok, its, why = self.solve_increment(lam, prev_step)
             if not ok:
                 # the elastic/plastic switch makes the residual non-smooth: a damped line search
                 # can stall where full Newton steps go through, and full steps can overshoot where
