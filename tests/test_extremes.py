@@ -70,7 +70,8 @@ def test_nearly_incompressible_ring(nu):
     pressure matches Lame (no locking) and the limit pressure (2/sqrt 3) sigma_y ln(b/a) is reached
     (+0.29 % at both nu, as at nu = 0.49). Before the round-off floor of the Newton tolerance
     (StaticSolver.roundoff_floor) Newton stalled at |R| ~ 1.5e-7 N (0.4999) / 1.5e-6 N (0.49999),
-    above atol = 1e-8 N, and both runs failed at the first increment."""
+    above atol = 1e-8 N, and both runs failed at the first increment. Now the stall is recognised at
+    once: 21 Newton iterations for the 10 increments (19 at nu = 0.49)."""
     sy = 20.0
     mat = Material(200e3, nu, Hardening("linear", yield_stress=sy, modulus=0.0), model="isochoric")
     # elastic: one increment to an inner displacement at ~40 % of the first-yield pressure
@@ -88,7 +89,7 @@ def test_nearly_incompressible_ring(nu):
     h = r["history"]
     assert finite(h["pressure_MPa"], h["inner_displacement_mm"], r["solver"].qmap.tau_values)
     assert abs(r["limit_pressure_MPa"] / limit_pressure(sy, 1.0, 2.0) - 1) < 0.01
-    assert len(r["solver"].cutbacks) == 0
+    assert len(r["solver"].cutbacks) == 0 and r["solver"].total_iterations <= 30
 
 
 def _force_icntl14(monkeypatch, value):
@@ -285,7 +286,7 @@ def check_penalty_sweep(factors):
 def test_punch_penalty_extremes():
     """Penalty 1e-2, 1 and 1e4 x the default (0.3 E / t): all reach 8 mm of travel. Measured: force
     5275 / 5335 / 5356 N, max penetration 0.061 / 1.1e-3 / 1.3e-7 mm. At 1e4 the residual floor is
-    ~2e-6 N, above atol: without StaticSolver.roundoff_floor the run failed at 0.4 mm of travel."""
+    ~2e-6 N, above atol: without StaticSolver.roundoff_floor the run failed at 0.13 mm of travel."""
     check_penalty_sweep([1e-2, 1.0, 1e4])
 
 

@@ -207,6 +207,10 @@ class StaticSolver:
 
     def _monitor(self, snes, its, norm):
         self.norms.append(float(norm))
+        n = self.norms
+        if its > 0 and n[-1] <= self.roundoff_floor and n[-1] > 0.1 * n[-2]:
+            # stalled at the round-off floor: converged (SNES tests convergence right after this)
+            snes.setTolerances(atol=max(snes.getTolerances()[1], self.roundoff_floor))
         if self.progress is not None:       # live Newton count within the increment (throttled)
             self.progress.update(self.lam_converged, newton=its)
 
