@@ -187,7 +187,7 @@ SCHEMA: dict[str, dict[str, Key | list[Key]]] = {
         "velocity": Key("float", REQUIRED,
                         "Impact velocity, given in m/s; stored as loading.velocity in mm/s (x 1e3), "
                         "the value as written in loading.velocity_m_s.",
-                        "m/s", kinds=("taylor_bar",), scale=1e3, raw_name="velocity_m_s", **_pos()),
+                        "m/s", kinds=("taylor_bar",), scale=1e3, raw_name="velocity_m_s", **_nonneg()),
         "end_time_us": Key("float", REQUIRED, "Simulated time.", "us", kinds=("taylor_bar",), **_pos()),
         "pressure": Key("float", REQUIRED, "Final internal pressure.", "MPa", kinds=("thick_cylinder",), **_pos()),
         "travel": Key("float", 40.0, "Punch travel.", "mm", kinds=("punch_stretching",), **_pos()),

@@ -21,7 +21,6 @@ first load increment far too large     test_static.py::test_too_large_first_incr
                                        ::test_min_increment_raises_run_error (clear RunError)
 elastic only (huge sigma_y)            test_huge_yield_stress_is_hyperelastic (closed forms)
 zero impact velocity                   test_taylor_bar_at_rest_solver; test_taylor_bar_at_rest_cli
-                                       (xfail until the scene accepts loading.velocity = 0)
 no NaN/inf in any output               tests/conftest.py (every test), test_nonfinite_output_check
 =====================================  ==========================================================
 """
@@ -328,8 +327,6 @@ def test_taylor_bar_at_rest_solver():
     assert np.abs(solver.u.x.array).max() == 0.0
 
 
-@pytest.mark.xfail(strict=True, reason="scene.py: loading.velocity must be > 0 (the explicit solver "
-                                       "accepts a body at rest since a7fc809); the lead fixes scene.py")
 @pytest.mark.skipif(not SERIAL, reason="tmp_path differs per rank")
 def test_taylor_bar_at_rest_cli(tmp_path):
     """`fenics-plast run taylor_bar.toml --set loading.velocity=0`: exit status 0, the bar at rest in
