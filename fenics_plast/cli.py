@@ -66,13 +66,29 @@ def cmd_run(args) -> int:
         return EXIT_USAGE
 
     out_dir = Path(args.out) if args.out else Path("results") / scene.name
+    resume = getattr(args, "resume", None)
+    if resume:
+        if args.out and Path(args.out).resolve() != Path(resume).resolve():
+            _error(f"--out {args.out} and --resume {resume} name different directories: a resumed run "
+                   f"continues in the directory it resumes (leave out --out)")
+            return EXIT_USAGE
+        out_dir = Path(resume)
 
     from mpi4py import MPI
     comm = MPI.COMM_WORLD
+    from .checkpoint import CheckpointError, check_resume
     from .errors import RunError
     from .output import RunOutput
 
-    output = RunOutput(out_dir, comm)
+    if resume:
+        try:
+            manifest = check_resume(out_dir, scene, comm.size)
+        except CheckpointError as e:
+            _error(str(e))
+            return EXIT_USAGE
+        _say(f"fenics-plast: resuming {out_dir} from checkpoint {manifest['counter']}")
+
+    output = RunOutput(out_dir, comm, resume=bool(resume))
     _say(f"fenics-plast: scene {scene.name!r} ({scene.kind}; physics: "
          f"{', '.join(scene.active_physics) or 'elastic'}) on {comm.size} rank(s) -> {out_dir}")
 
@@ -103,6 +119,10 @@ def cmd_run(args) -> int:
         summary.update(e.results)
         summary.update(converged=False, error=str(e))
         _error(str(e))
+    except CheckpointError as e:       # the checkpoint does not fit this run (found while loading it)
+        status = EXIT_RUN_FAILED
+        summary.update(converged=False, error=str(e))
+        _error(str(e))
     except KeyboardInterrupt:
         status = 130
         summary.update(converged=False, error="interrupted")
@@ -114,8 +134,13 @@ def cmd_run(args) -> int:
             traceback.print_exc()
         _error(f"run of {scene.name!r} crashed: {type(e).__name__}: {e}")
     summary["wall_time_s"] = time.perf_counter() - t0
+    ckpt = output.checkpointer
+    if ckpt is not None:
+        summary.update(ckpt.summary())
     summary["scene_settings"] = scene.to_dict()
     path = output.finish(summary)
+    if ckpt is not None and status == EXIT_OK:
+        ckpt.clear()            # after summary.json: a kill in between leaves a resumable run
     _say(f"fenics-plast: {'done' if status == EXIT_OK else 'FAILED'} in {summary['wall_time_s']:.1f} s; "
          f"results in {out_dir}/ (summary: {path})")
     return status
@@ -287,6 +312,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", help="output directory (default results/<scene name>)")
     r.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a scene key by dotted path, e.g. --set material.nu=0.3 (repeatable)")
+    r.add_argument("--resume", metavar="DIR",
+                   help="continue the killed run whose output directory is DIR from its newest complete "
+                        "checkpoint (same scene file, --set options and number of MPI ranks); output "
+                        "goes on in DIR")
     r.set_defaults(func=cmd_run)
 
     q = sub.add_parser("point", help="drive the material of a scene at one material point",

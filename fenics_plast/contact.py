@@ -419,6 +419,36 @@ class PenaltyContact:
         self.w_c.x.array[:] = self.solver.w.x.array
         self.lam_c.value = self.solver.lam
 
+    # -- checkpoints (fenics_plast.checkpoint) -----------------------------------------------
+    def state_dict(self):
+        """The contact history at the last commit (collective; see fenics_plast.checkpoint): the owned
+        entries of the state w_c and of each pair's nodal history (t_n, N_n, p_n) as ``hist<i>``,
+        keyed by node/cell, and the load factor lam_c."""
+        from fenics_plast.checkpoint import owned_keyed
+        d = dict(w_c=owned_keyed(self.w_c, self.solver._checkpoint_keys()[0]), lam_c=float(self.lam_c.value))
+        for i, p in enumerate(self.pairs):
+            d[f"hist{i}"] = owned_keyed(p.hist)
+        return d
+
+    def load_state(self, d):
+        """Restore :meth:`state_dict` (collective; same mesh and tools)."""
+        from fenics_plast import checkpoint as ck
+        ck.require(d, ["w_c", "lam_c"] + [f"hist{i}" for i in range(len(self.pairs))], "contact")
+        funs = [(self.w_c, d["w_c"], self.solver._checkpoint_keys()[0])]
+        funs += [(p.hist, d[f"hist{i}"], ck.dof_keys(p.hist.function_space)) for i, p in enumerate(self.pairs)]
+        why, vals = None, []
+        try:
+            for fun, table, keys in funs:
+                dm = fun.function_space.dofmap
+                vals.append(table.take(keys[: dm.index_map.size_local * dm.index_map_bs]))
+        except ck.CheckpointError as e:
+            why = str(e)
+        ck.raise_on_any(self.comm, why)
+        for (fun, _, _), v in zip(funs, vals):
+            fun.x.array[: v.size] = v
+            fun.x.scatter_forward()
+        self.lam_c.value = float(d["lam_c"])
+
     # -- diagnostics -------------------------------------------------------------------------
     def nodal_gaps(self, pair):
         """Gaps at the owned nodes of the pair's facets (current state), numpy (n,)."""

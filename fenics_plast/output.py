@@ -48,7 +48,8 @@ def _cell(v: Any) -> Any:
 class RunOutput:
     """Everything a run writes, in one directory.
 
-    * ``history(**row)``: one row of history.csv (header from the first row, flushed every row).
+    * ``history(**row)``: one row of history.csv (header from the first row, flushed every row);
+      ``restore_history(rows)`` rewrites it from a checkpoint's rows (resumed runs).
     * ``write_csv(name, columns)``: a table ``name``.csv from ``{column: 1-D array}``.
     * ``plot_xy(name, x, ys, xlabel, ylabel)``: ``name``.png.
     * ``xdmf_path``: where fields go (``out_dir/fields.xdmf``).
@@ -59,21 +60,45 @@ class RunOutput:
     * ``draw_plots(kind, ...)``: the scene kind's PNGs from history.csv (:mod:`fenics_plast.plots`).
     """
 
-    def __init__(self, out_dir: str | os.PathLike, comm=None):
+    def __init__(self, out_dir: str | os.PathLike, comm=None, resume: bool = False):
         self.out_dir = Path(out_dir)
         self.comm = comm
         self.rank = 0 if comm is None else comm.rank
         self.size = 1 if comm is None else comm.size
         self.is_root = self.rank == 0
+        self.resume = bool(resume)          # continues a killed run from its checkpoint (checkpoint.py)
+        self.checkpointer = None            # set by fenics_plast.checkpoint.Checkpointer
         if self.is_root:
             self.out_dir.mkdir(parents=True, exist_ok=True)
+            # a summary.json of an earlier run must not make this one look complete if it is killed
+            self.summary_path.unlink(missing_ok=True)
+            if self.resume:
+                self._keep_fields_before_resume()
         if self.size > 1:
             comm.barrier()
         self._hist_file = None
         self._hist_writer = None
         self._hist_header: list[str] | None = None
+        self.history_rows: list[dict] = []  # every row written (checkpoints save them)
         self._progress = None
         self.finished = False
+
+    def _keep_fields_before_resume(self) -> None:
+        """Rank 0, resumed run: fields.xdmf/.h5 of the killed run become fields_part<k>.xdmf/.h5 (its
+        frames up to the kill); the resumed run writes a new fields.xdmf from the checkpoint on."""
+        xdmf, h5 = self.xdmf_path, self.xdmf_path.with_suffix(".h5")
+        if not xdmf.is_file():
+            return
+        k = 1
+        while self.out_dir.joinpath(f"fields_part{k}.xdmf").exists():
+            k += 1
+        new = self.out_dir / f"fields_part{k}.xdmf"
+        text = xdmf.read_text(encoding="utf-8", errors="replace")
+        if h5.is_file():
+            os.replace(h5, new.with_suffix(".h5"))
+            text = text.replace(f"{h5.name}:", f"{new.with_suffix('.h5').name}:")
+        new.write_text(text, encoding="utf-8")
+        xdmf.unlink()
 
     # -- paths ---------------------------------------------------------------------------------
     def path(self, name: str) -> Path:
@@ -125,9 +150,33 @@ class RunOutput:
             extra = [k for k in row if k not in self._hist_header]
             if extra:
                 raise ValueError(f"history row has columns {extra} not in the header {self._hist_header}")
+        self.history_rows.append({k: (v.item() if isinstance(v, np.generic) else v) for k, v in row.items()})
         if self.is_root:
             self._hist_writer.writerow([_cell(row.get(k, "")) for k in self._hist_header])
             self._hist_file.flush()
+
+    def restore_history(self, rows: list[Mapping[str, Any]]) -> None:
+        """Resumed run: history.csv becomes exactly ``rows`` (the rows saved with the checkpoint;
+        later rows of the killed run are dropped), written atomically, and later rows append."""
+        self.close_history()
+        self.history_rows = [dict(r) for r in rows]
+        self._hist_header = list(rows[0]) if rows else None
+        if self.is_root:
+            path = self.history_path
+            if rows:
+                tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+                with open(tmp, "w", newline="", encoding="utf-8") as f:
+                    w = csv.writer(f)
+                    w.writerow(self._hist_header)
+                    for r in rows:
+                        w.writerow([_cell(r.get(k, "")) for k in self._hist_header])
+                    f.flush()
+                    os.fsync(f.fileno())
+                os.replace(tmp, path)
+                self._hist_file = open(path, "a", newline="", encoding="utf-8")
+                self._hist_writer = csv.writer(self._hist_file)
+            else:
+                path.unlink(missing_ok=True)
 
     def close_history(self) -> None:
         if self._hist_file is not None:

@@ -235,6 +235,14 @@ SCHEMA: dict[str, dict[str, Key | list[Key]]] = {
         "plots": Key("bool", True, "Write PNG plots."),
         "history_points": Key("int", 200, "Number of history rows (explicit runs).", kinds=EXPLICIT,
                               lo=2, lo_open=False),
+        "checkpoint_every": [
+            Key("int", 2000, "Checkpoint the run's state every N steps into `checkpoint/` of the output "
+                "directory (0: never); `fenics-plast run SCENE --resume DIR` continues a killed run. "
+                "Removed when the run succeeds.", kinds=EXPLICIT, lo=0, lo_open=False),
+            Key("int", 10, "Checkpoint the run's state every N converged increments into `checkpoint/` of the "
+                "output directory (0: never); `fenics-plast run SCENE --resume DIR` continues a killed run. "
+                "Removed when the run succeeds.", kinds=STATIC, lo=0, lo_open=False),
+        ],
     },
 }
 

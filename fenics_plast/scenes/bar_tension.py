@@ -11,6 +11,7 @@ import time
 import numpy as np
 from mpi4py import MPI
 
+from fenics_plast.checkpoint import Checkpointer
 from fenics_plast.errors import RunError
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Material
@@ -64,9 +65,24 @@ def run(scene, output) -> dict:
                f"setup {time.perf_counter() - t0:.1f} s")
 
     hist = dict(elongation_mm=[0.0], force_kN=[0.0], neck_radius_mm=[R * (1 - imp)])
-    output.history(increment=0, load_factor=0.0, elongation_mm=0.0, force_kN=0.0,
-                   neck_radius_mm=R * (1 - imp), newton_iterations=0)
     out = dict(every=int(getattr(scene.output, "every", 1)), xdmf=None, count=0)
+    # checkpoints (output.checkpoint_every increments) and resuming a killed run (--resume)
+    ckpt = Checkpointer.for_run(scene, output, comm)
+    loop = None
+    if ckpt is not None and ckpt.resuming:
+        state = ckpt.load()
+        s.load_state(state["solver"])
+        hist, out["count"], loop = state["runner"]["hist"], state["runner"]["count"], state["loop"]
+        output.log(f"bar_tension: resumed from the checkpoint at increment {len(s.increments)}, "
+                   f"load factor {s.lam_converged:.6g}")
+    else:
+        output.history(increment=0, load_factor=0.0, elongation_mm=0.0, force_kN=0.0,
+                       neck_radius_mm=R * (1 - imp), newton_iterations=0)
+
+    def on_checkpoint(solver, loop_state):
+        ckpt.save(len(solver.increments), solver=solver.state_dict(), loop=loop_state,
+                  runner=dict(hist=hist, count=out["count"]))
+    ck_args = {} if ckpt is None else dict(checkpoint_every=ckpt.every, on_checkpoint=on_checkpoint, resume=loop)
     if getattr(scene.output, "xdmf", True):
         from dolfinx import io
         out["xdmf"] = xf = io.XDMFFile(comm, str(output.xdmf_path), "w")
@@ -89,7 +105,8 @@ def run(scene, output) -> dict:
         for f in out["fields"]:
             xf.write_function(f, t)
 
-    write_fields(0.0)
+    if loop is None:
+        write_fields(0.0)
 
     def on_increment(solver):
         rec = solver.increments[-1]
@@ -118,7 +135,7 @@ def run(scene, output) -> dict:
 
     try:
         s.run(increments=sv.increments, min_increment=sv.min_increment, max_increment=sv.max_increment,
-              callback=on_increment)
+              callback=on_increment, **ck_args)
     except RunError as e:
         e.results.update(results(False))
         raise

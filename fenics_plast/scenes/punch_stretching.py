@@ -24,6 +24,7 @@ import ufl
 from dolfinx import fem
 from mpi4py import MPI
 
+from fenics_plast.checkpoint import Checkpointer
 from fenics_plast.contact import DieShoulder, PenaltyContact, SphericalPunch, default_penalty
 from fenics_plast.errors import RunError
 from fenics_plast.kinematics import Kinematics
@@ -127,10 +128,29 @@ def run(scene, output) -> dict:
     r_qp = r_expr.eval(q.cells).reshape(-1)
 
     hist = dict(d=[0.0], F=[0.0], pen=[0.0])
-    output.history(increment=0, load_factor=0.0, punch_displacement_mm=0.0, punch_force_kN=0.0,
-                   die_force_kN=0.0, max_penetration_mm=0.0, newton_iterations=0)
     thick = {}
     out = dict(every=int(getattr(scene.output, "every", 1)), xdmf=None, count=0)
+    # checkpoints (output.checkpoint_every increments) and resuming a killed run (--resume)
+    ckpt = Checkpointer.for_run(scene, output, comm)
+    loop = None
+    if ckpt is not None and ckpt.resuming:
+        state = ckpt.load()
+        s.load_state(state["solver"])
+        c.load_state(state["contact"])
+        hist, out["count"], loop = state["runner"]["hist"], state["runner"]["count"], state["loop"]
+        if state["runner"]["thick20"] is not None:
+            thick[THICKNESS_TRAVEL_MM] = tuple(np.asarray(a) for a in state["runner"]["thick20"])
+        output.log(f"punch_stretching: resumed from the checkpoint at increment {len(s.increments)}, "
+                   f"travel {travel * s.lam_converged:.4g} mm")
+    else:
+        output.history(increment=0, load_factor=0.0, punch_displacement_mm=0.0, punch_force_kN=0.0,
+                       die_force_kN=0.0, max_penetration_mm=0.0, newton_iterations=0)
+
+    def on_checkpoint(solver, loop_state):
+        t20 = thick.get(THICKNESS_TRAVEL_MM)
+        ckpt.save(len(solver.increments), solver=solver.state_dict(), contact=c.state_dict(), loop=loop_state,
+                  runner=dict(hist=hist, count=out["count"], thick20=None if t20 is None else list(t20)))
+    ck_args = {} if ckpt is None else dict(checkpoint_every=ckpt.every, on_checkpoint=on_checkpoint, resume=loop)
     if getattr(scene.output, "xdmf", True):
         from dolfinx import io
         out["xdmf"] = xf = io.XDMFFile(comm, str(output.xdmf_path), "w")
@@ -154,7 +174,8 @@ def run(scene, output) -> dict:
         for f in out["fields"]:
             xf.write_function(f, t)
 
-    write_fields(0.0)
+    if loop is None:
+        write_fields(0.0)
     lam_20 = min(THICKNESS_TRAVEL_MM / travel, 1.0)
 
     def on_increment(solver):
@@ -225,13 +246,14 @@ def run(scene, output) -> dict:
     try:
         if lam_20 < 1.0:
             n1 = max(1, int(round(sv.increments * lam_20)))
+            # (resumed: a leg already done returns at once; the saved loop state names its leg)
             s.run(increments=n1, min_increment=sv.min_increment, max_increment=sv.max_increment,
-                  lam_end=lam_20, callback=on_increment)
+                  lam_end=lam_20, callback=on_increment, **ck_args)
             s.run(increments=max(1, sv.increments - n1), min_increment=sv.min_increment,
-                  max_increment=sv.max_increment, lam_end=1.0, callback=on_increment)
+                  max_increment=sv.max_increment, lam_end=1.0, callback=on_increment, **ck_args)
         else:
             s.run(increments=sv.increments, min_increment=sv.min_increment, max_increment=sv.max_increment,
-                  callback=on_increment)
+                  callback=on_increment, **ck_args)
     except RunError as e:
         finish_outputs()
         e.results.update(results(False))

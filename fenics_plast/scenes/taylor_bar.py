@@ -16,6 +16,7 @@ import numpy as np
 from dolfinx import fem, io
 from mpi4py import MPI
 
+from fenics_plast.checkpoint import Checkpointer
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Material
 from fenics_plast.meshing import bar_mesh
@@ -66,12 +67,28 @@ def simulate(scene, output=None, comm=MPI.COMM_WORLD, log=None):
     want_xdmf = output is not None and out is not None and bool(out.xdmf)
     hist = {k: [] for k in ("time_us", "length_mm", "radius_mm", "kinetic_energy_J", "elastic_energy_J",
                             "plastic_dissipation_J", "external_work_J", "energy_balance_error")}
+    row_index = [0]
+    # checkpoints (output.checkpoint_every steps) and resuming a killed run (--resume)
+    ckpt = Checkpointer.for_run(scene, output, comm)
+    loop = None
+    if ckpt is not None and ckpt.resuming:
+        state = ckpt.load()
+        solver.load_state(state["solver"])
+        hist = state["runner"]["hist"]
+        row_index[0] = state["runner"]["row_index"]
+        loop = state["loop"]
+        solver.log(f"taylor_bar: resumed from the checkpoint at step {solver.step_count}, "
+                   f"t = {solver.t * 1e6:.4g} us")
+
+    def on_checkpoint(s, loop_state):
+        ckpt.save(s.step_count, solver=s.state_dict(), loop=loop_state,
+                  runner=dict(hist=hist, row_index=row_index[0]))
+
     xdmf = None
     eqps_dg = None
     if want_xdmf:
         xdmf = io.XDMFFile(comm, str(output.xdmf_path), "w")
         xdmf.write_mesh(solver.mesh)
-    row_index = [0]
 
     def on_row(s, t):
         length, radius = bar_shape(s)
@@ -95,8 +112,10 @@ def simulate(scene, output=None, comm=MPI.COMM_WORLD, log=None):
     try:
         bar = (output.progress(scene.loading.end_time_us, scene.name, what="t", unit="us")
                if output is not None else None)
+        ck_args = {} if ckpt is None else dict(checkpoint_every=ckpt.every, on_checkpoint=on_checkpoint,
+                                               resume=loop)
         stats = solver.run(end_time, dt_safety=scene.solver.dt_safety, steps=steps, rows=rows, on_row=on_row,
-                           bar=bar)
+                           bar=bar, **ck_args)
     finally:
         if xdmf is not None:
             xdmf.close()

@@ -314,6 +314,72 @@ class ExplicitDynamics:
         if not ok and self._failure is None:
             self._failure = f"non-finite stress or internal force at step {self.step_count}"
 
+    # ------------------------------------------------------------------------------------------
+    def state_dict(self):
+        """The state a resumed run needs (see fenics_plast.checkpoint; collective): the owned entries
+        of u, u_n, v, a, du, f [mm, mm/s, mm/s^2, N] and of theta/theta_n (ufl route, q1p0), the
+        committed quadrature-point state binv (n,3,3) and eqps (n,), each keyed by node, cell or
+        point; the time t [s], the step count, KE0 and the (summed) work accumulators W_int, W_ext
+        [N mm]."""
+        from fenics_plast.checkpoint import Keyed, owned_keyed
+        kv, kq = self._checkpoint_keys()
+        n = self.n_own
+        d = dict(u=owned_keyed(self.u, kv), u_n=owned_keyed(self.u_n, kv), v=owned_keyed(self.v, kv),
+                 a=Keyed(self.a, kv[:n]), du=Keyed(self.du, kv[:n]), f=Keyed(np.array(self.f), kv[:n]),
+                 binv=Keyed(self.qmap.binv, kq), eqps=Keyed(self.qmap.eqps, kq), t=self.t,
+                 step_count=self.step_count, KE0=self.KE0, W_int=self._reduce(self.W_int, MPI.SUM),
+                 W_ext=self._reduce(self.W_ext, MPI.SUM))
+        if self.theta is not None:
+            d.update(theta=owned_keyed(self.theta), theta_n=owned_keyed(self.theta_n))
+        return d
+
+    def _checkpoint_keys(self):
+        if not hasattr(self, "_ck_keys"):
+            from fenics_plast.checkpoint import dof_keys, qp_keys
+            self._ck_keys = (dof_keys(self.V), qp_keys(self.mesh, self.n_cells_own, self.qmap.nq))
+        return self._ck_keys
+
+    def load_state(self, d):
+        """Restore :meth:`state_dict` (collective). Raises CheckpointError (on every rank) when the
+        checkpoint is of another mesh or layout. The summed work accumulators go to rank 0."""
+        from fenics_plast import checkpoint as ck
+        keys = ["u", "u_n", "v", "a", "du", "f", "binv", "eqps", "t", "step_count", "W_int", "W_ext", "KE0"]
+        ck.require(d, keys + (["theta", "theta_n"] if self.theta is not None else []), "explicit solver")
+        kv, kq = self._checkpoint_keys()
+        n = self.n_own
+        why = None
+        try:
+            owned = {k: d[k].take(kv[:n]) for k in ("u", "u_n", "v", "a", "du", "f")}
+            qp = {k: d[k].take(kq) for k in ("binv", "eqps")}
+            if self.theta is not None:
+                kt = ck.dof_keys(self.theta.function_space)
+                nt = self.theta.function_space.dofmap.index_map.size_local
+                owned_t = {k: d[k].take(kt[:nt]) for k in ("theta", "theta_n")}
+        except ck.CheckpointError as e:
+            why = str(e)
+        ck.raise_on_any(self.comm, why)
+        for k in ("u", "u_n", "v"):
+            fun = getattr(self, k)
+            fun.x.array[:n] = owned[k]
+            fun.x.scatter_forward()
+        self.a[:] = owned["a"]
+        self.du[:] = owned["du"]
+        self.f[:] = owned["f"]
+        for k in ("binv", "eqps"):
+            getattr(self.qmap, k)[:] = qp[k]
+            getattr(self.qmap, k + "_trial")[:] = qp[k]
+        if self.theta is not None:
+            for k in ("theta", "theta_n"):
+                fun = getattr(self, k)
+                fun.x.array[:nt] = owned_t[k]
+                fun.x.scatter_forward()
+        self.t = float(d["t"])
+        self.step_count = int(d["step_count"])
+        root = self.comm.rank == 0
+        self.W_int = float(d["W_int"]) if root else 0.0
+        self.W_ext = float(d["W_ext"]) if root else 0.0
+        self.KE0 = None if d["KE0"] is None else float(d["KE0"])
+
     def _reduce(self, x, op):
         """Global reduction of a float (no MPI call in serial: it is checked every few steps)."""
         return x if self.comm.size == 1 else self.comm.allreduce(x, op=op)
@@ -348,7 +414,7 @@ class ExplicitDynamics:
 
     # ------------------------------------------------------------------------------------------
     def run(self, end_time, dt_safety=0.8, steps=None, rows=2, on_row=None, progress=10, max_steps=None,
-            bar=None):
+            bar=None, checkpoint_every=0, on_checkpoint=None, resume=None):
         """Integrate to ``end_time`` [s].
 
         steps=None: dt = dt_safety * dt_stable, re-estimated every ``reestimate_every`` steps and
@@ -357,11 +423,15 @@ class ExplicitDynamics:
         spaced times (t = 0 and t = end_time included). ``max_steps`` stops the run early (benchmarks).
         ``progress``: number of log lines with energies; ``bar``: a :class:`fenics_plast.progress.Progress`
         over the simulated time in us, updated every ``reestimate_every`` steps.
+        ``on_checkpoint(solver, loop)`` is called after the step that completes ``checkpoint_every``
+        steps since the last call (at the end of a chunk: no per-step cost), with ``loop`` the run-loop
+        variables (JSON-able); ``resume=loop`` continues such a run after :meth:`load_state` (no row
+        at t = 0 then).
         Returns a dict of run statistics.
         """
         if not 0.0 < dt_safety <= 1.0:
             raise RunError(f"solver.dt_safety must lie in (0, 1], got {dt_safety}")
-        dt_stable0 = self.stable_dt()
+        dt_stable0 = self.stable_dt() if resume is None else resume["dt_stable0"]
         if steps is not None:
             dt_fixed = end_time / int(steps)
             if dt_fixed > dt_stable0:
@@ -374,12 +444,16 @@ class ExplicitDynamics:
             self.initialize()
         row_times = np.linspace(0.0, end_time, max(int(rows), 2))
         next_row = 1
-        if on_row is not None:
+        if on_row is not None and resume is None:
             on_row(self, 0.0)
         dt_stable = dt_stable0
         dt_min, dt_max = np.inf, 0.0
         prog_times = np.linspace(0.0, end_time, progress + 1)[1:] if progress else []
         next_prog = 0
+        if resume is not None:
+            next_row, next_prog, dt_stable = resume["next_row"], resume["next_prog"], resume["dt_stable"]
+            dt_min, dt_max = resume["dt_min"], resume["dt_max"]
+        last_checkpoint = steps0 = self.step_count
         t_wall0 = time.perf_counter()
         eps_t = 1e-12 * end_time
         chunked = self.fused and self.comm.size == 1
@@ -445,10 +519,15 @@ class ExplicitDynamics:
                          f"max eqps = {self.max_eqps():.3f}  energy error = {e['balance_error']:.2e}",
 )
                 next_prog += 1
+            if on_checkpoint is not None and checkpoint_every > 0 and \
+                    self.step_count - last_checkpoint >= checkpoint_every:
+                on_checkpoint(self, dict(next_row=next_row, next_prog=next_prog, dt_stable=dt_stable,
+                                         dt_stable0=dt_stable0, dt_min=dt_min, dt_max=dt_max))
+                last_checkpoint = self.step_count
         wall = time.perf_counter() - t_wall0
         return dict(steps=self.step_count, dt_min=dt_min, dt_max=dt_max, dt_stable_initial=dt_stable0,
                     dt_stable_final=self.stable_dt(), wall_s=wall,
-                    time_per_step_s=wall / max(self.step_count, 1))
+                    time_per_step_s=wall / max(self.step_count - steps0, 1))
 
     def _unstable_message(self, dt, why, dts=None):
         dts = self.stable_dt() if dts is None else dts

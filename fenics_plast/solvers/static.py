@@ -371,19 +371,89 @@ class StaticSolver:
 
     lam_converged = 0.0
 
+    # -- checkpoints (fenics_plast.checkpoint) ---------------------------------------------------
+    def state_dict(self):
+        """The state a resumed run needs, at a converged increment (collective; see
+        fenics_plast.checkpoint): the owned entries of w, w_n, w_nm1 (displacement [mm] and, q1p0,
+        dilatation), the committed quadrature-point state binv (n,3,3) and eqps (n,), keyed by node,
+        cell or point; the load factor, force scale [N], round-off floor [N], counters, the increment
+        and cut-back records, and MUMPS ICNTL(14)."""
+        from fenics_plast.checkpoint import Keyed, owned_keyed
+        kw, kq = self._checkpoint_keys()
+        icntl = PETSc.Options().getInt(self.prefix + "mat_mumps_icntl_14", 100) if self._setup_done else 100
+        return dict(w=owned_keyed(self.w, kw), w_n=owned_keyed(self.w_n, kw), w_nm1=owned_keyed(self.w_nm1, kw),
+                    binv=Keyed(self.qmap.binv, kq), eqps=Keyed(self.qmap.eqps, kq),
+                    lam_converged=self.lam_converged, force_scale=self.force_scale,
+                    roundoff_floor=self.roundoff_floor, total_iterations=self.total_iterations,
+                    total_iterations_failed=self.total_iterations_failed, increments=self.increments,
+                    cutbacks=self.cutbacks, mumps_workspace_raises=getattr(self, "mumps_workspace_raises", []),
+                    mumps_icntl_14=icntl)
+
+    def _checkpoint_keys(self):
+        if not hasattr(self, "_ck_keys"):
+            from fenics_plast.checkpoint import dof_keys, qp_keys
+            self._ck_keys = (dof_keys(self.W), qp_keys(self.mesh, self.qmap.n_owned, self.qmap.nq))
+        return self._ck_keys
+
+    def load_state(self, d):
+        """Restore :meth:`state_dict` (collective). Raises CheckpointError on every rank when the
+        checkpoint is of another mesh or layout."""
+        from fenics_plast import checkpoint as ck
+        ck.require(d, ["w", "w_n", "w_nm1", "binv", "eqps", "lam_converged", "force_scale", "roundoff_floor",
+                       "total_iterations", "increments", "cutbacks"], "static solver")
+        if not self._setup_done:
+            self.setup()
+        kw, kq = self._checkpoint_keys()
+        why = None
+        try:
+            n = self.W.dofmap.index_map.size_local * self.W.dofmap.index_map_bs
+            owned = {k: d[k].take(kw[:n]) for k in ("w", "w_n", "w_nm1")}
+            qp = {k: d[k].take(kq) for k in ("binv", "eqps")}
+        except ck.CheckpointError as e:
+            why = str(e)
+        ck.raise_on_any(self.comm, why)
+        for k in ("w", "w_n", "w_nm1"):
+            fun = getattr(self, k)
+            fun.x.array[:n] = owned[k]
+            fun.x.scatter_forward()
+        for k in ("binv", "eqps"):
+            getattr(self.qmap, k)[:] = qp[k]
+            getattr(self.qmap, k + "_trial")[:] = qp[k]
+        self.lam_converged = float(d["lam_converged"])
+        self.set_load(self.lam_converged)
+        self.force_scale = float(d["force_scale"])
+        self.roundoff_floor = float(d["roundoff_floor"])
+        self.total_iterations = int(d["total_iterations"])
+        self.total_iterations_failed = int(d.get("total_iterations_failed", 0))
+        self.increments = list(d["increments"])
+        self.cutbacks = list(d["cutbacks"])
+        if hasattr(self, "mumps_workspace_raises"):
+            self.mumps_workspace_raises = list(d.get("mumps_workspace_raises", []))
+        icntl = int(d.get("mumps_icntl_14", 100))
+        if icntl != PETSc.Options().getInt(self.prefix + "mat_mumps_icntl_14", 100):
+            PETSc.Options()[self.prefix + "mat_mumps_icntl_14"] = icntl
+            self.snes.getKSP().setFromOptions()
+
     def run(self, increments=20, min_increment=1e-4, max_increment=0.1, lam_end=1.0,
-            callback=None, growth=1.5, fast_iterations=4):
+            callback=None, growth=1.5, fast_iterations=4, checkpoint_every=0, on_checkpoint=None,
+            resume=None):
         """Drive lam from its current value to lam_end.
 
         callback(solver) is called after every converged increment; returning True stops the run.
         Raises RunError below min_increment (all converged increments are kept/written).
         Returns True when lam_end was reached, False when the callback stopped the run.
+        ``on_checkpoint(solver, loop)`` is called after the callback of every ``checkpoint_every``-th
+        converged increment (counted over the solver's life), ``loop`` holding this loop's variables
+        (JSON-able); ``resume=loop`` continues the run() call that saved it (after
+        :meth:`load_state`; ignored by a run() call to another lam_end).
         """
         if not self._setup_done:
             self.setup()
         span = lam_end - self.lam_converged
         dl = min(span / increments, max_increment)
         prev_step = None
+        if resume is not None and resume.get("lam_end") == lam_end:
+            dl, prev_step = resume["dl"], resume["prev_step"]
         if self.progress is not None:
             self.progress.update(self.lam_converged, inc=len(self.increments), newton=0,
                                  newton_total=self.total_iterations, cutbacks=len(self.cutbacks))
@@ -424,6 +494,9 @@ class StaticSolver:
                     return False
                 if its <= fast_iterations:
                     dl *= growth
+                if on_checkpoint is not None and checkpoint_every > 0 and \
+                        len(self.increments) % checkpoint_every == 0:
+                    on_checkpoint(self, dict(dl=dl, prev_step=prev_step, lam_end=lam_end))
             else:
                 self.log(f"  cut back at load {lam:.6g} (step {dl:.3g}): {why}, "
                          f"{its} iterations, |R| = {', '.join(f'{n:.2e}' for n in norms[-4:])}")
