@@ -21,6 +21,7 @@ import time
 import numpy as np
 from mpi4py import MPI
 
+from fenics_plast.checkpoint import Checkpointer
 from fenics_plast.errors import RunError
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Material
@@ -44,8 +45,9 @@ def full_plastic_displacement(material, yield_stress, a, b):
 
 def solve(comm, a, b, cells_radial, cells_circumferential, material, element="q1p0",
           delta=None, p_stop=None, increments=20, min_increment=1e-4, max_increment=0.1,
-          solver_options=None, log=None, verbose=True, on_increment=None):
-    """Run the displacement-controlled ring; returns dict with pressure history and the solver."""
+          solver_options=None, log=None, verbose=True, on_increment=None, checkpointer=None):
+    """Run the displacement-controlled ring; returns dict with pressure history and the solver.
+    ``checkpointer``: a :class:`fenics_plast.checkpoint.Checkpointer` (checkpoints; resume)."""
     mesh, ct, ft, ids = ring_mesh(comm, a, b, cells_radial, cells_circumferential)
     kin = Kinematics(mesh, "plane_strain")
     s = StaticSolver(kin, material, element=element, log=log, verbose=verbose, **(solver_options or {}))
@@ -76,9 +78,23 @@ def solve(comm, a, b, cells_radial, cells_circumferential, material, element="q1
             on_increment(solver, d, p)
         return p_stop is not None and p >= p_stop
 
+    ck_args = {}
+    if checkpointer is not None:
+        loop = None
+        if checkpointer.resuming:
+            state = checkpointer.load()
+            s.load_state(state["solver"])
+            hist, loop = state["runner"]["hist"], state["loop"]
+
+        def on_checkpoint(solver, loop_state):
+            checkpointer.save(len(solver.increments), solver=solver.state_dict(), loop=loop_state,
+                              runner=dict(hist=hist))
+        ck_args = dict(checkpoint_every=checkpointer.every, on_checkpoint=on_checkpoint, resume=loop)
+
     converged = True
     try:
-        s.run(increments=increments, min_increment=min_increment, max_increment=max_increment, callback=cb)
+        s.run(increments=increments, min_increment=min_increment, max_increment=max_increment, callback=cb,
+              **ck_args)
     except RunError as e:
         converged = False
         error = e
@@ -109,7 +125,7 @@ def run(scene, output) -> dict:
               m.cells_circumferential * refine, material, element=m.element,
               p_stop=scene.loading.pressure, increments=sv.increments, min_increment=sv.min_increment,
               max_increment=sv.max_increment, solver_options=opts, log=output.log,
-              on_increment=on_increment)
+              on_increment=on_increment, checkpointer=Checkpointer.for_run(scene, output, comm))
     s, hist = r["solver"], r["history"]
     res = dict(limit_pressure_MPa=r["limit_pressure_MPa"],
                final_pressure_MPa=float(hist["pressure_MPa"][-1]),
