@@ -196,6 +196,17 @@ def _plain(obj: Any) -> Any:
     raise TypeError(f"checkpoint state value of type {type(obj).__name__} is not JSON-able: {obj!r}")
 
 
+def _json_default(obj: Any) -> Any:
+    """json.dumps hook for what the C encoder does not know (numpy scalars and arrays, paths)."""
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, os.PathLike):
+        return os.fspath(obj)
+    raise TypeError(f"checkpoint state value of type {type(obj).__name__} is not JSON-able: {obj!r}")
+
+
 def _fsync_dir(path: Path) -> None:
     try:
         fd = os.open(path, os.O_RDONLY)
@@ -408,7 +419,7 @@ class Checkpointer:
                     raise TypeError(f"checkpoint {g}.{k}: a distributed array must be Keyed (rows named "
                                     f"independently of the partition); global values go as lists")
                 else:
-                    meta[g][k] = _plain(v)
+                    meta[g][k] = v
         buf = io.BytesIO()
         np.savez(buf, **arrays)
         data = buf.getvalue()
@@ -423,8 +434,8 @@ class Checkpointer:
         if self.rank == 0:
             manifest = dict(format=FORMAT, kind=self.kind, counter=counter, ranks=self.size, files=files,
                             written_unix=time.time(), settings=self.settings, state=meta,
-                            history_rows=_plain(self.output.history_rows) if self.output is not None else None)
-            write_atomic(path, json.dumps(manifest, indent=1).encode("utf-8"))
+                            history_rows=self.output.history_rows if self.output is not None else None)
+            write_atomic(path, json.dumps(manifest, default=_json_default).encode("utf-8"))
             self._prune(counter)
         self._barrier()
         self.saved += 1
