@@ -51,7 +51,7 @@ from .hardening import LINEAR, flow_stress
 SEED, ISOCHORIC = 0, 1
 ELASTIC = -1  # hardening code meaning "no plasticity"
 
-_njit = numba.njit(cache=True, fastmath=False, nogil=True)
+_njit = numba.njit(cache=True, fastmath={"contract", "arcp", "nsz"}, nogil=True)
 # The per-point functions take the whole arrays and the point index q: array views such as tau[q]
 # cost reference counting (atomic NRT calls) per point.  (numba-level inline="always" of the point
 # functions gave no measurable gain and multiplied the cold compile time by 8: not used.)

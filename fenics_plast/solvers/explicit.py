@@ -283,6 +283,8 @@ class ExplicitDynamics:
         np.multiply(self.f, self.free_minv, out=self.a)
         np.negative(self.a, out=self.a)
         self.KE0 = self.kinetic_energy()
+        if self.fused and self.comm.size == 1:
+            self._advance(0, 0.0)          # compiles (or loads) the chunked loop now, not inside the run
 
     def step(self, dt):
         """One central-difference step of size dt [s] (velocity-Verlet form, see module doc)."""

@@ -30,7 +30,7 @@ import numpy as np
 
 from fenics_plast.material import kernels
 
-_njit = numba.njit(cache=True, nogil=True)
+_njit = numba.njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
 
 
 class CellGeometry:
