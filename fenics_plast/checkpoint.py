@@ -30,9 +30,9 @@ as ``group.key`` and ``group.key@keys``; every other value (numbers, strings, li
 JSON-able and identical on all ranks (reduce rank-local sums first), and goes to the manifest.
 :meth:`Checkpointer.load` returns the same groups, a :class:`Keyed` value as a :class:`KeyedTable`
 whose ``take(keys)`` gives the rows of the keys this rank owns now, wherever they were saved:
-dolfinx does not always partition a mesh the same way twice under MPI (measured: 1 run in 13 of
-the Taylor bar on 2 ranks swapped the halves and renumbered), so rows are matched by key, not by
-position. Keys: :func:`dof_keys` (input node index or original cell index, times 16, plus the
+dolfinx does not always partition a mesh the same way twice under MPI (measured: 1 of 16 runs of
+the Taylor bar on 2 ranks swapped the halves and renumbered them), so rows are matched by key, not
+by position. Keys: :func:`dof_keys` (input node index or original cell index, times 16, plus the
 component), :func:`qp_keys` (original cell index times the points per cell plus the point).
 
 Test hook (tests/test_checkpoint.py): ``FENICS_PLAST_KILL_AFTER_CHECKPOINTS=N`` ends the process
@@ -40,7 +40,8 @@ with ``os._exit(137)`` on every rank, no clean-up, right after the N-th checkpoi
 complete (``FENICS_PLAST_KILL_POINT=after``, default) or at the (N+1)-th checkpoint after its rank
 files are written and before its manifest (``FENICS_PLAST_KILL_POINT=during``).
 
-This module knows nothing of dolfinx; ``comm`` is an mpi4py communicator or None (serial).
+This module imports no dolfinx (the key helpers read the dolfinx objects they are given; ufl is
+imported when needed) and knows no physics; ``comm`` is an mpi4py communicator or None (serial).
 """
 from __future__ import annotations
 

@@ -6,7 +6,9 @@ an ``mpirun``) and keeps the final displacement field, which the CLI does not wr
 JOBS.json: a list of ``{"argv": [...fenics-plast arguments...], "npz": "PATH"}``, run in order in
 one process; each job writes (rank 0) PATH with the exit status ``rc`` and the displacement at the
 end of the run, gathered over the ranks and sorted by node position: ``X`` (n, 2) reference
-coordinates [mm] rounded to 1e-9 mm, ``u`` (n, 2) [mm].
+coordinates [mm] rounded to 1e-9 mm, ``u`` (n, 2) [mm]. A job ``{"keys": "taylor"|"bar", "npz":
+PATH}`` instead writes the checkpoint keys of the solver's dofs and quadrature points with their
+coordinates (:func:`key_coordinates`), to check that they do not depend on the partition.
 """
 from __future__ import annotations
 
@@ -63,10 +65,54 @@ def run_job(argv, npz, comm=MPI.COMM_WORLD):
     return rc
 
 
+def key_coordinates(kind, npz, comm=MPI.COMM_WORLD):
+    """Owned dof keys (fenics_plast.checkpoint.dof_keys) of the Taylor bar's V or the necking bar's
+    mixed W with each dof's coordinates (a DG0 dof: its cell's midpoint), and the quadrature-point
+    keys with the points' coordinates, gathered and sorted by key into ``npz`` (rank 0)."""
+    import ufl
+    from dolfinx import fem
+
+    from fenics_plast.checkpoint import dof_keys, qp_keys
+    from fenics_plast.material import Hardening, Material
+    from fenics_plast.scene import load_scene
+    from fenics_plast.scenes import bar_tension, taylor_bar
+    if kind == "taylor":
+        s = taylor_bar.build(load_scene(REPO / "demos" / "taylor_bar.toml"), comm, log=lambda m: None)
+        space = s.V
+    else:
+        mat = Material(200e3, 0.3, Hardening("linear", yield_stress=400.0, modulus=100.0))
+        s, _ = bar_tension.build(comm, 6.4, 26.7, 4, 12, 0.018, mat, verbose=False)
+        space = s.W
+    keys = dof_keys(space)
+    X = np.full((keys.size, 2), np.nan)
+    subs = ([space.sub(i).collapse() for i in range(space.num_sub_spaces)] if kind == "bar" else
+            [(space, np.arange(keys.size))])
+    for sub, parent in subs:
+        bs = sub.dofmap.index_map_bs
+        X[np.asarray(parent)] = np.repeat(sub.tabulate_dof_coordinates()[:, :2], bs, axis=0)
+    dm = space.dofmap
+    n = dm.index_map.size_local * dm.index_map_bs
+    q = s.qmap
+    qk = qp_keys(s.mesh, q.n_owned, q.nq)
+    qx = fem.Expression(ufl.SpatialCoordinate(s.mesh), q.points).eval(q.cells).reshape(-1, 2)
+    parts = comm.gather((keys[:n], X[:n], qk, qx), root=0)
+    if comm.rank == 0:
+        out = {}
+        for i, name in enumerate(("dof", "qp")):
+            k = np.concatenate([p[2 * i] for p in parts])
+            x = np.concatenate([p[2 * i + 1] for p in parts])
+            order = np.argsort(k)
+            out[f"{name}_keys"], out[f"{name}_x"] = k[order], x[order]
+        np.savez(npz, **out)
+
+
 def main():
     jobs = json.loads(Path(sys.argv[1]).read_text())
     for job in jobs:
-        run_job(job["argv"], job["npz"])
+        if "keys" in job:
+            key_coordinates(job["keys"], job["npz"])
+        else:
+            run_job(job["argv"], job["npz"])
 
 
 if __name__ == "__main__":
