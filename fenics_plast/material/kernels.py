@@ -400,6 +400,7 @@ def update_points(model, Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, b
     """Update n points: Fu, binv_n (n,3,3), eqps_n (n,) -> tau, binv (n,3,3), eqps (n,), a (n,3,3,3,3).
 
     a is ignored (may be a dummy (1,3,3,3,3) array) when want_tangent is False.
+    binv may be binv_n and eqps may be eqps_n (update in place): each point is read before it is written.
     Returns the number of points that yielded in this update.
     """
     n = Fu.shape[0]

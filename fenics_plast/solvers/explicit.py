@@ -192,8 +192,7 @@ class ExplicitDynamics:
         # the arguments of fused_force.internal_force: persistent arrays, updated in place
         self._force_args = (self.u.x.array, self.u_n.x.array, self._cell_nodes, g.dNdX, g.N, g.Rinv, g.W,
                             self.element == "q1p0", *self.material.kernel_args(), q.binv, q.eqps,
-                            q.binv_trial, q.eqps_trial, q.tau_values, self._Fu, self._Finv, self._factor,
-                            self.theta_cells, self._f_all)
+                            q.tau_values, self._Fu, self._Finv, self._factor, self.theta_cells, self._f_all)
 
     def _setup_ufl(self, kin, vt):
         """Forms and expression of the dolfinx route (compiled once)."""

@@ -194,22 +194,19 @@ def _force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f):
 
 @_njit
 def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lam, mu, law, hp, yield_tol,
-                   binv, eqps, binv_trial, eqps_trial, tau, Fu, Finv, factor, theta, f):
+                   binv, eqps, tau, Fu, Finv, factor, theta, f):
     """Kinematics, material update and commit, nodal internal force, in one call.
 
     u, u_n : (2 n_nodes,) current and previous displacement (owned + ghost) [mm].
     cell_dofs : (nc, 4) node indices of the owned cells (basix order).
-    binv, eqps : committed state (n,3,3), (n,), overwritten by the new state (committed here).
+    binv, eqps : committed state (n,3,3), (n,), updated in place (explicit steps commit every update).
     tau : (n,3,3) Kirchhoff stress out [MPa]; Fu (n,3,3) work array whose off-block entries stay 0;
     Finv (n,5), factor (n,) work arrays; theta (nc,) mean dilatation out; f (2 n_nodes,) force out [N].
     Returns True if the stress and the force are finite.
     """
     _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta)
     no_tangent = np.empty((1, 3, 3, 3, 3))
-    kernels.update_points(model, Fu, binv, eqps, lam, mu, law, hp, yield_tol, tau, binv_trial, eqps_trial,
-                          no_tangent, False)
-    binv[:] = binv_trial
-    eqps[:] = eqps_trial
+    kernels.update_points(model, Fu, binv, eqps, lam, mu, law, hp, yield_tol, tau, binv, eqps, no_tangent, False)
     return _force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f)
 
 
