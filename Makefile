@@ -32,7 +32,7 @@ test-slow: install
 bench: install
 	@shopt -s nullglob; for b in benchmarks/*.py; do echo "== $$b"; $(PY) "$$b" || exit 1; done
 
-# Regenerate docs/SCENE_KEYS.md from the schema in fenics_plast/scene.py.
+# Regenerate docs/SCENE_KEYS.md and the reference at the end of README.md from the schema in fenics_plast/scene.py.
 keys: install
 	$(PY) -m fenics_plast.scene
 

@@ -698,13 +698,34 @@ def keys_markdown() -> str:
 
 
 DOCS_PATH = Path(__file__).resolve().parent.parent / "docs" / "SCENE_KEYS.md"
+README_PATH = DOCS_PATH.parent.parent / "README.md"
+README_MARKERS = ("<!-- scene-keys:start (generated: `make keys`) -->", "<!-- scene-keys:end -->")
 
 
-def write_keys_doc(path: str | Path = DOCS_PATH) -> Path:
+def readme_keys_section() -> str:
+    """The key reference as embedded in README.md: headings one level down, between the markers."""
+    body = "\n".join(("#" + line) if line.startswith("#") else line
+                     for line in keys_markdown().splitlines()[1:])      # without the "# Scene file keys" title
+    return f"{README_MARKERS[0]}\n{body.strip()}\n{README_MARKERS[1]}"
+
+
+def readme_with_keys(text: str) -> str:
+    """README text with the section between the markers replaced by :func:`readme_keys_section`."""
+    start, end = text.find(README_MARKERS[0]), text.find(README_MARKERS[1])
+    if start < 0 or end < start:
+        raise ValueError(f"README.md lacks the markers {README_MARKERS}")
+    return text[:start] + readme_keys_section() + text[end + len(README_MARKERS[1]):]
+
+
+def write_keys_doc(path: str | Path = DOCS_PATH, readme: str | Path | None = README_PATH) -> Path:
+    """Rewrite docs/SCENE_KEYS.md and the key reference embedded in README.md."""
     path = Path(path)
     path.write_text(keys_markdown(), encoding="utf-8")
+    if readme is not None and Path(readme).exists():
+        readme = Path(readme)
+        readme.write_text(readme_with_keys(readme.read_text(encoding="utf-8")), encoding="utf-8")
     return path
 
 
-if __name__ == "__main__":  # python -m fenics_plast.scene  -> rewrite docs/SCENE_KEYS.md
+if __name__ == "__main__":  # python -m fenics_plast.scene  -> rewrite docs/SCENE_KEYS.md and README's copy
     print(write_keys_doc())

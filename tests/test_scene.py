@@ -4,7 +4,8 @@ from pathlib import Path
 
 import pytest
 
-from fenics_plast.scene import DOCS_PATH, SceneError, keys_markdown, load_scene, parse_scene
+from fenics_plast.scene import (DOCS_PATH, README_PATH, SceneError, keys_markdown, load_scene, parse_scene,
+                                readme_with_keys)
 
 BAR = """
 [scene]
@@ -229,3 +230,6 @@ def test_scene_keys_doc_up_to_date():
     committed = Path(DOCS_PATH).read_text(encoding="utf-8")
     assert committed == keys_markdown(), (
         "docs/SCENE_KEYS.md is stale: regenerate with `python -m fenics_plast.scene`")
+    readme = Path(README_PATH).read_text(encoding="utf-8")
+    assert readme == readme_with_keys(readme), (
+        "README.md's scene-file reference is stale: regenerate with `make keys`")
