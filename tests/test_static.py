@@ -232,3 +232,22 @@ def test_bar_tension_runner_outputs(tmp_path):
         xdmf = (tmp_path / "out" / "fields.xdmf").read_text()
         for name in ("displacement", "equivalent_plastic_strain", "von_mises_stress", "pressure"):
             assert f'Attribute Name="{name}"' in xdmf
+
+
+def test_solver_options_are_removed_from_petsc_database():
+    """Each StaticSolver keeps its SNES/KSP/MUMPS settings under its own prefix in PETSc's global options
+    database, which holds at most 512 entries: they must go with the solver (a long test session or
+    study creates hundreds of solvers)."""
+    import gc
+
+    from petsc4py import PETSc
+    before = len(PETSc.Options().getAll())
+    for _ in range(3):
+        s, _info = necking_bar(2, 3, 0.05)
+        s.setup()
+        prefix = s.prefix
+        assert any(k.startswith(prefix) for k in PETSc.Options().getAll())
+        del s, _info
+        gc.collect()
+        assert not any(k.startswith(prefix) for k in PETSc.Options().getAll())
+    assert len(PETSc.Options().getAll()) <= before      # no growth (earlier tests may still free theirs)

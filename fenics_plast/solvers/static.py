@@ -12,6 +12,7 @@ extra residual terms (pressures) may use ``solver.load`` (a fem.Constant equal t
 from __future__ import annotations
 
 import itertools
+import weakref
 import time
 
 import numpy as np
@@ -26,6 +27,16 @@ from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 from fenics_plast.errors import RunError
 
 _prefix_counter = itertools.count()
+
+
+def _weak(method):
+    """A callable that forwards to the bound ``method`` without keeping its object alive."""
+    ref = weakref.WeakMethod(method)
+
+    def call(*args):
+        m = ref()
+        return None if m is None else m(*args)
+    return call
 MUMPS_WORKSPACE_ERRORS = (-8, -9, -11, -12, -14)   # INFOG(1): a MUMPS work array too small
 MUMPS_MAX_ICNTL14 = 5000    # largest ICNTL(14) [% extra workspace] tried before giving up (start: 100)
 ROUNDOFF_FACTOR = 10.0      # safety factor of the residual round-off floor (see StaticSolver._jacobian)
@@ -165,6 +176,9 @@ class StaticSolver:
 
     # -- PETSc objects ------------------------------------------------------------------------
     def setup(self):
+        """Compile the forms (with the extra terms added so far) and create the SNES; calling it again
+        (after adding terms) replaces the previous SNES and its options."""
+        self.close()
         R = self.R_int
         J = self.J_int
         for r in self._extra_R:
@@ -194,12 +208,36 @@ class StaticSolver:
         self._extent = self.comm.allreduce(float(np.abs(xg).max()) if xg.size else 0.0, op=MPI.MAX)
         self.snes = snes = PETSc.SNES().create(self.comm)
         snes.setOptionsPrefix(self.prefix)
-        snes.setFunction(self._residual, self.b)
-        snes.setJacobian(self._jacobian, self.A)
-        snes.setMonitor(self._monitor)
+        # weak callbacks: SNES holds them strongly, and a strong reference back to the solver would be a
+        # cycle through PETSc that the garbage collector cannot see (the solver would never be freed)
+        snes.setFunction(_weak(self._residual), self.b)
+        snes.setJacobian(_weak(self._jacobian), self.A)
+        snes.setMonitor(_weak(self._monitor))
         snes.setFromOptions()
         snes.getKSP().setFromOptions()
         self._setup_done = True
+
+    def close(self):
+        """Destroy the SNES and remove this solver's entries from PETSc's global options database, which
+        holds at most 512 (tests and studies create many solvers). Called by :meth:`setup` and when the
+        solver is garbage-collected; a later :meth:`run` sets up again."""
+        prefix = getattr(self, "prefix", None)
+        if prefix is None:
+            return
+        opts = PETSc.Options()
+        for name in [k for k in opts.getAll() if k.startswith(prefix)]:
+            opts.delValue(name)
+        self.prefix = None
+        if getattr(self, "snes", None) is not None:
+            self.snes.destroy()
+            self.snes = None
+        self._setup_done = False
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:       # interpreter shutdown: PETSc may be gone already
+            pass
 
     def _set_linesearch(self, kind):
         PETSc.Options()[self.prefix + "snes_linesearch_type"] = kind
