@@ -5,7 +5,8 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 PKGS=(python3-dolfinx python3-petsc4py python3-mpi4py python3-gmsh python3-numba
-      python3-matplotlib python3-pytest python3-venv openmpi-bin)
+      python3-matplotlib python3-pytest python3-venv openmpi-bin
+      python3-nbclient python3-ipykernel python3-nbformat python3-yaml)   # last line: the demo notebook
 
 missing=()
 for p in "${PKGS[@]}"; do
