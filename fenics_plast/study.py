@@ -401,7 +401,8 @@ def richardson(h: Sequence[float], f: Sequence[float], order_range=ORDER_RANGE) 
     else:
         lo, hi = 1e-6, 60.0
         if not g(lo) < ratio < g(hi):
-            return Richardson(None, None, f"no order p in ({lo:g}, {hi:g}) fits ratio {ratio:.3g}")
+            return Richardson(None, None, f"the differences ({d1:+.3g}, {d2:+.3g}) shrink too slowly (or too "
+                                          f"fast) for an order p in ({lo:g}, {hi:g})")
         for _ in range(200):
             mid = 0.5 * (lo + hi)
             lo, hi = (mid, hi) if g(mid) < ratio else (lo, mid)
@@ -701,8 +702,10 @@ def write_markdown(study: Study, path: Path, plot_name: str | None = "study.png"
                 L.append(f"| {r.name} | " + " | ".join(
                     f"{_fmt(row.get(k), 5)} ({_pct(row.get(f'err_paper_{k}'))})" for k in pk) + " |")
         L.append("")
-    L += ["## Cheapest run within a tolerance of the reference", ""]
-    for k in study.keys:
+    variants_only = not ordered_varies(study.varies)
+    if not variants_only:
+        L += ["## Cheapest run within a tolerance of the reference", ""]
+    for k in ([] if variants_only else study.keys):
         parts = []
         for tol in TOLERANCES:
             r = cheapest_within(study, k, tol)
@@ -710,9 +713,8 @@ def write_markdown(study: Study, path: Path, plot_name: str | None = "study.png"
             parts.append(f"{tol_s}: {r.label} ({r.value('wall_time_s'):.3g} s)" if r is not None
                          else f"{tol_s}: none of the runs")
         L.append(f"* `{k}`: " + "; ".join(parts))
-    L.append("")
-    L.append("(The reference run itself is left out when the reference is a run, not an extrapolation.)")
-    L.append("")
+    if not variants_only:
+        L += ["", "(The reference run itself is left out when the reference is a run, not an extrapolation.)", ""]
     if plot_name:
         L += [f"![relative error against wall time]({plot_name})", ""]
     path.write_text("\n".join(L), encoding="utf-8")
