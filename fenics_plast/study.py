@@ -631,14 +631,15 @@ def _md_escape(s: str) -> str:
     return s.replace("|", "\\|").replace("\n", " ")
 
 
-def cheapest_within(study: Study, key: str, tol: float) -> Run | None:
-    """The successful run with the smallest wall time whose |err_key| <= tol (not the reference run)."""
+def cheapest_within(study: Study, key: str, tol: float, ref: Reference | None = None) -> Run | None:
+    """The successful run (of ``ref``'s group, or of any group) with the smallest wall time whose
+    |err_key| <= tol against its group's reference; the reference run itself is left out."""
     best = None
-    for r in study.runs:
-        ref = study.ref_of(r)
-        if not r.ok or (r is ref.run and ref.orders.get(key) is None):
+    for r in (ref.runs if ref is not None else study.runs):
+        ref_r = study.ref_of(r)
+        if not r.ok or (r is ref_r.run and ref_r.orders.get(key) is None):
             continue
-        e = relative_error(r.value(key), ref.values.get(key))
+        e = relative_error(r.value(key), ref_r.values.get(key))
         t = r.value("wall_time_s")
         if e is None or abs(e) > tol or t is None:
             continue
@@ -705,14 +706,18 @@ def write_markdown(study: Study, path: Path, plot_name: str | None = "study.png"
     variants_only = not ordered_varies(study.varies)
     if not variants_only:
         L += ["## Cheapest run within a tolerance of the reference", ""]
-    for k in ([] if variants_only else study.keys):
-        parts = []
-        for tol in TOLERANCES:
-            r = cheapest_within(study, k, tol)
-            tol_s = f"{tol * 100:g} %"
-            parts.append(f"{tol_s}: {r.label} ({r.value('wall_time_s'):.3g} s)" if r is not None
-                         else f"{tol_s}: none of the runs")
-        L.append(f"* `{k}`: " + "; ".join(parts))
+    for ref in ([] if variants_only else study.refs):
+        g = ", ".join(f"{k} = {v}" for k, v in ref.group)
+        if len(study.refs) > 1:
+            L.append(f"* **{g}**:")
+        for k in study.keys:
+            parts = []
+            for tol in TOLERANCES:
+                r = cheapest_within(study, k, tol, ref)
+                tol_s = f"{tol * 100:g} %"
+                parts.append(f"{tol_s}: {r.label} ({r.value('wall_time_s'):.3g} s)" if r is not None
+                             else f"{tol_s}: none of the runs")
+            L.append(("  " if len(study.refs) > 1 else "") + f"* `{k}`: " + "; ".join(parts))
     if not variants_only:
         L += ["", "(The reference run itself is left out when the reference is a run, not an extrapolation.)", ""]
     if plot_name:

@@ -99,6 +99,22 @@ def test_references_fallbacks():
     assert refs[0].values["x"] == 5.0 and "first run" in refs[0].kind["x"]
 
 
+def test_cheapest_within():
+    """f = 1.0, 1.1, 1.11 at refine 1, 2, 4 (wall times 1, 2, 3 s): Richardson gives p = log2(10) and
+    the limit 1.11 + 0.01/9; the errors are -10 %, -1 %, -0.1 %."""
+    varies = [st.parse_vary("mesh.refine=1,2,4")]
+    runs = _runs(varies, [1.0, 1.1, 1.11])
+    study = st.Study(scene=TAYLOR, kind="x", scene_name="x", varies=varies, sets=[], keys=["x"], info=[],
+                     out=Path("."), runs=runs)
+    study.refs = st.references(runs, varies, ["x"])
+    assert study.refs[0].values["x"] == pytest.approx(1.11 + 0.01 / 9, rel=1e-12)
+    assert study.refs[0].orders["x"] == pytest.approx(math.log2(10), rel=1e-12)
+    assert st.cheapest_within(study, "x", 0.2) is runs[0]
+    assert st.cheapest_within(study, "x", 0.02) is runs[1]
+    assert st.cheapest_within(study, "x", 0.005) is runs[2]
+    assert st.cheapest_within(study, "x", 1e-4) is None
+
+
 def test_parse_vary():
     v = st.parse_vary("mesh.refine = 1, 2,4")
     assert (v.key, v.values) == ("mesh.refine", ["1", "2", "4"])
