@@ -210,3 +210,19 @@ def test_bad_study_arguments_exit_2(tmp_path, capsys):
     assert "material.nu" in capsys.readouterr().err
     assert st.main([str(TAYLOR), "--vary", "mesh.refine=1,2", "--vary", "mesh.refine=3", "--out", str(out)]) == 2
     assert not (out / "study.csv").exists()
+
+
+@needs_serial
+@pytest.mark.slow
+def test_study_under_mpirun_matches_serial(tmp_path):
+    """--np 2: each run under mpirun -n 2 reports 2 ranks and the serial run's results (Taylor to 5 us)."""
+    varies = [st.parse_vary("mesh.refine=1")]
+    sets = ["loading.end_time_us=5", "output.history_points=3"]
+    s1 = st.run_study(TAYLOR, varies, tmp_path / "np1", sets, log=lambda m: None)
+    s2 = st.run_study(TAYLOR, varies, tmp_path / "np2", sets, np_ranks=2, log=lambda m: None)
+    r1, r2 = s1.runs[0], s2.runs[0]
+    assert r1.ok and r2.ok, (r1.reason, r2.reason)
+    assert r1.summary["mpi_ranks"] == 1 and r2.summary["mpi_ranks"] == 2
+    assert r2.summary["steps"] == r1.summary["steps"]
+    for k in st.KEY_RESULTS["taylor_bar"]:
+        assert r2.summary[k] == pytest.approx(r1.summary[k], rel=1e-9), k
