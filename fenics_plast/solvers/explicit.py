@@ -306,9 +306,10 @@ class ExplicitDynamics:
     def _advance(self, nsteps, dt):
         """``nsteps`` steps of size dt in one compiled call (serial fused route; same arithmetic as
         ``nsteps`` calls of :meth:`step`)."""
-        w, done, ok = fused_force.advance(nsteps, dt, self.v.x.array, self.a, self.free_minv, self.du,
-                                          self.n_own, self._force_args)
-        self.W_int += w
+        work = np.array([self.W_int])
+        done, ok = fused_force.advance(nsteps, dt, self.v.x.array, self.a, self.free_minv, self.du,
+                                       self.n_own, self._force_args, work)
+        self.W_int = float(work[0])
         for _ in range(done):
             self.t += dt
         self.step_count += done

@@ -235,20 +235,20 @@ def kick(v, a, f, free_minv, du, dt, n):
 
 
 @_njit
-def advance(nsteps, dt, v, a, free_minv, du, n, force_args):
+def advance(nsteps, dt, v, a, free_minv, du, n, force_args, work):
     """``nsteps`` central-difference steps of size dt in one call (serial runs).
 
     force_args : the arguments of :func:`internal_force` (u and u_n first, f last), whose arrays are
-    updated in place. Returns (internal work increment [N mm], steps done, finite): stops after the
-    first step whose stress or force is not finite.
+    updated in place. work : (1,) internal work [N mm], incremented step by step exactly as
+    :meth:`ExplicitDynamics.step` does (so the result does not depend on how steps are grouped).
+    Returns (steps done, finite): stops after the first step whose stress or force is not finite.
     """
     u, u_n, f = force_args[0], force_args[1], force_args[-1]
-    w = 0.0
     for k in range(nsteps):
         w_old = kick_drift(v, a, f, du, u, u_n, dt, n)
         ok = internal_force(*force_args)
         w_new = kick(v, a, f, free_minv, du, dt, n)
-        w += 0.5 * (w_old + w_new)
+        work[0] += 0.5 * (w_old + w_new)
         if not ok:
-            return w, k + 1, False
-    return w, nsteps, True
+            return k + 1, False
+    return nsteps, True
