@@ -143,7 +143,10 @@ def test_kill_and_resume_serial(tmp_path, name, capsys):
     assert checkpoint_driver.run_job(["run", *scene_args(name), "--resume", res], tmp_path / "res.npz") == 0
     summary = json.loads((res / "summary.json").read_text())
     assert summary["resumed_from_checkpoint"] == last["counter"]
-    du, rel = compare(ref, res, tmp_path / "ref.npz", tmp_path / "res.npz", exact_history=True)
+    # the explicit kernels are numba code compiled with FMA contraction: a process that compiles them and
+    # one that loads them from the cache may round differently (1e-15), so the Taylor history is compared
+    # to 1e-10 like the MPI runs; the static scenes must give the same text
+    du, rel = compare(ref, res, tmp_path / "ref.npz", tmp_path / "res.npz", exact_history=name != "taylor")
     print(f"{name} serial: resumed from {last['counter']}, max |du| = {du:.3g} mm, max rel. summary diff {rel:.3g}")
     if name == "taylor":     # the killed run's fields are kept apart, the resumed run's go on in fields.xdmf
         part = (res / "fields_part1.xdmf").read_text()
