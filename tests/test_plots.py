@@ -14,28 +14,7 @@ from fenics_plast.plots import FIGURES, read_csv
 ROOT = Path(__file__).resolve().parent.parent
 DEMOS = ROOT / "demos"
 
-CYLINDER = """
-[scene]
-name = "ring"
-kind = "thick_cylinder"
-[mesh]
-geometry = "plane_strain"
-inner_radius = 10.0
-outer_radius = 20.0
-cells_radial = 4
-cells_circumferential = 4
-[material]
-E = 200e3
-nu = 0.3
-[material.hardening]
-law = "linear"
-yield_stress = 250.0
-modulus = 0.0
-[loading]
-pressure = 1000.0
-[solver]
-increments = 5
-"""
+RING = Path(__file__).resolve().parent / "scenes" / "ring.toml"    # small thick cylinder
 
 # small runs of a few seconds each: scene file, overrides
 RUNS = {
@@ -68,8 +47,7 @@ def results(tmp_path_factory):
     out = {}
     for kind, (scene, sets) in RUNS.items():
         if scene is None:
-            scene = base / "ring.toml"
-            scene.write_text(CYLINDER)
+            scene = RING
         d = base / kind
         args = ["run", str(scene), "--out", str(d)]
         for s in sets:

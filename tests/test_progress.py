@@ -2,6 +2,7 @@
 import io
 import re
 import types
+from pathlib import Path
 
 import pytest
 
@@ -181,30 +182,7 @@ def test_run_output_logs_through_the_bar(tmp_path):
     assert text.split("\n")[-2].split("\r")[-1].startswith("s  [############")
 
 
-CYLINDER = """
-[scene]
-name = "ring"
-kind = "thick_cylinder"
-[mesh]
-geometry = "plane_strain"
-inner_radius = 10.0
-outer_radius = 20.0
-cells_radial = 3
-cells_circumferential = 3
-[material]
-E = 200e3
-nu = 0.3
-[material.hardening]
-law = "linear"
-yield_stress = 250.0
-modulus = 0.0
-[loading]
-pressure = 1000.0
-[solver]
-increments = 5
-[output]
-plots = false
-"""
+RING = Path(__file__).resolve().parent / "scenes" / "ring.toml"    # small thick cylinder
 
 
 def test_static_run_reports_increments_and_newton_iterations(tmp_path, capsys, monkeypatch):
@@ -213,9 +191,8 @@ def test_static_run_reports_increments_and_newton_iterations(tmp_path, capsys, m
     import json
     from fenics_plast import cli
     monkeypatch.delenv("FENICS_PLAST_PROGRESS", raising=False)
-    scene = tmp_path / "ring.toml"
-    scene.write_text(CYLINDER)
-    assert cli.main(["run", str(scene), "--out", str(tmp_path / "out")]) == 0
+    assert cli.main(["run", str(RING), "--out", str(tmp_path / "out"), "--set", "mesh.cells_radial=3",
+                     "--set", "mesh.cells_circumferential=3", "--set", "output.plots=false"]) == 0
     lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("ring ")]
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert lines and all("\r" not in ln for ln in lines)

@@ -84,10 +84,10 @@ class Material:
 
         Returns the number of points that yielded.
         """
-        lam, mu = self.lame
+        model, lam, mu, law, hp, tol = self.kernel_args()
         want = a is not None
-        return kernels.update_points(self._model, Fu, binv_n, eqps_n, lam, mu, self._law, self._hp,
-                                     self.yield_tol, tau, binv, eqps, a if want else self._no_tangent, want)
+        return kernels.update_points(model, Fu, binv_n, eqps_n, lam, mu, law, hp, tol, tau, binv, eqps,
+                                     a if want else self._no_tangent, want)
 
     def update(self, Fu, binv_n, eqps_n, tangent: bool = True):
         """Return-mapping update from the converged state (binv_n, eqps_n) under the increment Fu.

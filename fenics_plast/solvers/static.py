@@ -350,6 +350,13 @@ class StaticSolver:
         except Exception:  # noqa: BLE001
             return ""
 
+    def _failure(self, message):
+        """RunError ending with what converged so far, carrying it in its results."""
+        return RunError(f"{message} {len(self.increments)} increments converged up to load factor "
+                        f"{self.lam_converged:.6g}.",
+                        results={"converged": False, "increments": len(self.increments),
+                                 "load_factor": self.lam_converged})
+
     def _raise_mumps_workspace(self):
         """After a failed solve: if MUMPS ran out of workspace (INFOG(1) in MUMPS_WORKSPACE_ERRORS),
         double ICNTL(14) (extra workspace in %, at least 20) and return True: retry the same step.
@@ -366,13 +373,10 @@ class StaticSolver:
             return False
         new = max(2 * icntl14, 20)
         if new > MUMPS_MAX_ICNTL14:
-            raise RunError(
+            raise self._failure(
                 f"static solver: the direct solver MUMPS ran out of workspace (INFOG(1) = {info}) at load "
                 f"factor {self.lam:.6g} even with ICNTL(14) = {icntl14} % extra workspace: the linear system "
-                f"is extremely ill-conditioned (Poisson's ratio too close to 0.5, or a huge contact penalty?). "
-                f"{len(self.increments)} increments converged up to load factor {self.lam_converged:.6g}.",
-                results={"converged": False, "increments": len(self.increments),
-                         "load_factor": self.lam_converged})
+                f"is extremely ill-conditioned (Poisson's ratio too close to 0.5, or a huge contact penalty?).")
         self.log(f"  MUMPS ran out of workspace (INFOG(1) = {info}) at load {self.lam:.6g}: "
                  f"ICNTL(14) {icntl14} -> {new} %, same step again")
         PETSc.Options()[self.prefix + "mat_mumps_icntl_14"] = new
@@ -542,13 +546,9 @@ class StaticSolver:
                 self.cutbacks.append(dict(load_factor=lam, step=dl, iterations=its, reason=why))
                 dl *= 0.5
                 if dl < min_increment * (1 - 1e-9):
-                    raise RunError(
+                    raise self._failure(
                         f"static solver: no convergence at load factor {lam:.6g} even with the "
-                        f"smallest step {2 * dl:.3g} (min_increment {min_increment:g}): {why}. "
-                        f"{len(self.increments)} increments converged up to load factor "
-                        f"{self.lam_converged:.6g}.",
-                        results={"converged": False, "increments": len(self.increments),
-                                 "load_factor": self.lam_converged})
+                        f"smallest step {2 * dl:.3g} (min_increment {min_increment:g}): {why}.")
         return True
 
     # -- post-processing ----------------------------------------------------------------------
