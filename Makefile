@@ -1,4 +1,4 @@
-# fenics-plast: make demo | test | test-slow | bench | keys
+# fenics-plast: make demo | test | test-slow | bench | keys | fresh-check
 SHELL := /bin/bash
 PY    := .venv/bin/python
 FP    := .venv/bin/fenics-plast
@@ -7,7 +7,7 @@ FP    := .venv/bin/fenics-plast
 export OMPI_ALLOW_RUN_AS_ROOT := 1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
 
-.PHONY: install demo test test-slow bench keys clean
+.PHONY: install demo test test-slow bench keys fresh-check clean
 
 install:
 	bash scripts/install.sh
@@ -35,6 +35,11 @@ bench: install
 # Regenerate docs/SCENE_KEYS.md and the reference at the end of README.md from the schema in fenics_plast/scene.py.
 keys: install
 	$(PY) -m fenics_plast.scene
+
+# The README's two commands on a new minimal Debian bookworm root (debootstrap + chroot, the Dockerfile's
+# steps); needs root. ~12 min the first time on a machine, ~9 min once the .deb files are cached.
+fresh-check:
+	bash scripts/fresh_root_check.sh
 
 clean:
 	rm -rf results

@@ -4,8 +4,12 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
-PKGS=(python3-dolfinx python3-petsc4py python3-mpi4py python3-gmsh python3-numba
-      python3-matplotlib python3-pytest python3-venv openmpi-bin
+# Every package the install and the two README commands need, named here: a minimal bookworm
+# (debootstrap --variant=minbase, the debian:bookworm image) has none of them, and nothing may rely on
+# what a development image happens to have (scripts/fresh_root_check.sh proves it).
+PKGS=(python3-dolfinx python3-petsc4py python3-mpi4py python3-gmsh python3-numba python3-numpy
+      python3-matplotlib python3-pytest openmpi-bin
+      python3-venv python3-setuptools python3-wheel        # venv + `pip install -e .` (bdist_wheel)
       python3-nbclient python3-ipykernel python3-nbformat python3-yaml)   # last line: the demo notebook
 
 missing=()
