@@ -48,22 +48,40 @@ def _say(msg: str) -> None:
 # run
 
 
-def cmd_run(args) -> int:
+def _is_general(path) -> bool:
+    """A scene file of the general format (it has an [analysis] table), not an old scene kind."""
+    import tomllib
     try:
-        scene = load_scene(args.scene, args.set or ())
-    except SceneError as e:
+        return "analysis" in tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return False
+
+
+def cmd_run(args) -> int:
+    from .problem import SceneError as ProblemError
+    try:
+        if _is_general(args.scene):
+            from .problem import load_problem
+            scene = load_problem(args.scene, args.set or ())
+        else:
+            scene = load_scene(args.scene, args.set or ())
+    except (SceneError, ProblemError) as e:
         _error(str(e))
         return EXIT_USAGE
 
-    from .scenes import RunnerNotFound, get_runner
-    try:
-        runner = get_runner(scene.kind)
-    except RunnerNotFound as e:
-        _error(str(e))
-        return EXIT_USAGE
-    except ImportError as e:
-        _error(f"cannot import the runner for scene kind {scene.kind!r}: {e}")
-        return EXIT_USAGE
+    kind = scene.analysis.type if hasattr(scene, "tables") else scene.kind
+    if hasattr(scene, "tables"):
+        from .runner import run as runner
+    else:
+        from .scenes import RunnerNotFound, get_runner
+        try:
+            runner = get_runner(scene.kind)
+        except RunnerNotFound as e:
+            _error(str(e))
+            return EXIT_USAGE
+        except ImportError as e:
+            _error(f"cannot import the runner for scene kind {scene.kind!r}: {e}")
+            return EXIT_USAGE
 
     out_dir = Path(args.out) if args.out else Path("results") / scene.name
     resume = getattr(args, "resume", None)
@@ -88,13 +106,22 @@ def cmd_run(args) -> int:
             return EXIT_USAGE
         _say(f"fenics-plast: resuming {out_dir} from checkpoint {manifest['counter']}")
 
+    if hasattr(scene, "tables"):       # the mesh's groups are checked before anything is written
+        from .runner import read_mesh
+        try:
+            mesh_data = read_mesh(scene, comm)
+        except ProblemError as e:
+            _error(str(e))
+            return EXIT_USAGE
+        general_runner = runner
+        runner = lambda scene, output: general_runner(scene, output, mesh_data)   # noqa: E731
     output = RunOutput(out_dir, comm, resume=bool(resume))
-    _say(f"fenics-plast: scene {scene.name!r} ({scene.kind}; physics: "
+    _say(f"fenics-plast: scene {scene.name!r} ({kind}; physics: "
          f"{', '.join(scene.active_physics) or 'elastic'}) on {comm.size} rank(s) -> {out_dir}")
 
     summary = {
         "scene": scene.name,
-        "kind": scene.kind,
+        "kind": kind,
         "scene_file": str(scene.path),
         "overrides": list(scene.overrides),
         "active_physics": scene.active_physics,
@@ -114,6 +141,10 @@ def cmd_run(args) -> int:
         if not summary["converged"]:
             status = EXIT_RUN_FAILED
             _error(f"run of {scene.name!r} did not converge")
+    except ProblemError as e:          # found while setting up (e.g. a symmetry group that is not straight)
+        status = EXIT_USAGE
+        summary.update(converged=False, error=str(e))
+        _error(str(e))
     except RunError as e:
         status = EXIT_RUN_FAILED
         summary.update(e.results)

@@ -1,15 +1,20 @@
 """Frictional penalty contact of the deformable body against analytic rigid tools (seed eqs. 16-25).
 
-Tools are rigid bodies that only translate, with a position given as a function of the solver's
-load factor (the ``fem.Constant`` ``solver.load``).  For every tool the gap ``g`` and the outward
-normal ``N`` (pointing from the tool into the body) are exact UFL expressions of the current
-position ``x = X + u`` of the body's candidate facets:
+Tools (:mod:`fenics_plast.tools`: :class:`~fenics_plast.tools.Plane`, ``Circle``, ``Profile``) are
+rigid bodies that only translate, along a path of the solver's load factor (the ``fem.Constant``
+``solver.load``).  For every tool the gap ``g`` and the outward normal ``N`` (pointing from the tool
+into the body) are exact UFL expressions of the current position ``x = X + u`` of the body's
+candidate facets.  The punch-stretching scene's tools are thin layers over them, kept here:
 
 * :class:`SphericalPunch`: sphere (circle in the r-z plane) of radius R centred on the axis,
   tangent to z = ``z_pole`` at load 0, moving up by ``travel * lam``;
-* :class:`CircularTool` (the die shoulder): a fixed circle (a torus in axisymmetry);
+* :class:`CircularTool` / :class:`DieShoulder`: a fixed circle (a torus in axisymmetry);
 * :class:`FlatWall`: a plane through ``point`` with normal ``normal`` (into the body), moving along a
   piecewise-linear path of the load factor (tests).
+
+Each :class:`ContactPair` (one tool against one facet group, :meth:`PenaltyContact.add_pair`) has
+its own normal penalty ``eps``, tangential penalty ``eps_T``, friction coefficient ``mu`` and law;
+:meth:`PenaltyContact.add_tool` uses the contact-wide defaults given to :class:`PenaltyContact`.
 
 Normal contact (seed eqs. 17-18) is a penalty derived from the potential
 ``Pi = int 1/2 eps <-g>^2 w dA0`` (reference facets, weight w = 2 pi R in axisymmetry): the
@@ -35,15 +40,15 @@ penetration), and the weight is a CG1 Function holding each node's exact tributa
 ``int N_i w dA0 / int_trap N_i dA0`` (2 pi r_i inside the face, 2 pi h/3 at the axis node, where
 2 pi r would be 0).
 
-History (t_n, N_n, p_n) therefore lives at the nodes: a CG1 Function with 5 components per tool.
+History (t_n, N_n, p_n) therefore lives at the nodes: a CG1 Function with 5 components per pair.
 ``commit()`` (call it after every converged increment, e.g. from the solver's run callback) stores
 the values by assembling ``int value q ds / int q ds`` with the same nodal rule and a CG1 test
 function q, which gives exactly the nodal values (both facets of a node see the same value).
 A cut-back needs nothing: the history only changes in ``commit()``.
 
 Normal and friction terms share the rule, so at every contact node, and therefore in total, the
-tangential force equals mu times the normal force when slipping.  mu = 0 assembles no friction
-term at all.
+tangential force of a pair equals its mu times its normal force when slipping.  A pair with
+mu = 0 assembles no friction term at all.
 """
 from __future__ import annotations
 
@@ -54,113 +59,42 @@ import dolfinx.fem.petsc as fpetsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from fenics_plast.expressions import piecewise_linear
+from fenics_plast.tools import PENALTY_FACTOR, Circle, Plane, Tool, default_penalty
+
 LAWS = ("coulomb", "quasi-coulomb")
 
 #: nodal (trapezoidal) rule on facets: points at the facet's end points
 NODAL_RULE = {"quadrature_degree": 1, "quadrature_rule": "custom",
               "quadrature_points": ((0.0,), (1.0,)), "quadrature_weights": (0.5, 0.5)}
 
-#: default normal penalty = PENALTY_FACTOR * E / thickness (chosen by measurement, see
-#: tests/test_contact.py: penetration < 1 % of the thickness, force change < 1 % for x10)
-PENALTY_FACTOR = 0.3
-
-
-def default_penalty(E, thickness, factor=PENALTY_FACTOR):
-    """Normal penalty eps = factor * E / t [N/mm^3]."""
-    return factor * E / thickness
-
 
 # ----------------------------------------------------------------------------------------------
-# piecewise-linear functions of the load factor, in UFL (lam a Constant) or numpy (lam a float)
+# the tools of the punch-stretching scene (thin layers over fenics_plast.tools, same numbers)
 
 
-def _piecewise(lam, knots, values, use_ufl):
-    """Piecewise-linear interpolation through (knots, values), constant outside."""
-    knots = [float(k) for k in knots]
-    values = [float(v) for v in values]
-    if len(knots) == 1:
-        return values[0] if not use_ufl else ufl.as_ufl(values[0])
-    if not use_ufl:
-        return float(np.interp(float(lam), knots, values))
-    out = ufl.as_ufl(values[0])
-    for k in range(len(knots) - 1):
-        a, b = knots[k], knots[k + 1]
-        slope = (values[k + 1] - values[k]) / (b - a)
-        if slope != 0.0:
-            out = out + slope * ufl.min_value(ufl.max_value(lam - a, 0.0), b - a)
-    return out
+class CircularTool(Circle):
+    """Circle of radius ``radius`` [mm] centred at ``center`` + translation (the body lies outside)."""
 
-
-# ----------------------------------------------------------------------------------------------
-# tools
-
-
-class Tool:
-    """A rigid tool that translates. Subclasses give the gap and the normal.
-
-    ``translation(lam, use_ufl)`` is the tool's displacement at load factor lam (2-vector).
-    ``gap(x, lam)`` -> (g, N) in UFL; ``gap_np(x, lam)`` -> (g (n,), N (n,2)) in numpy.
-    """
-
-    name = "tool"
-
-    def translation(self, lam, use_ufl=True):
-        z = ufl.as_ufl(0.0) if use_ufl else 0.0
-        return (z, z) if use_ufl else np.zeros(2)
-
-    def gap(self, x, lam):
-        raise NotImplementedError
-
-    def gap_np(self, x, lam):
-        raise NotImplementedError
-
-
-class CircularTool(Tool):
-    """Circle of radius ``radius`` centred at ``center`` + translation (the body lies outside)."""
-
-    name = "circle"
-
-    def __init__(self, radius, center, name=None):
-        self.radius = float(radius)
-        self.center0 = np.asarray(center, dtype=float)
-        if name:
-            self.name = name
-
-    def center(self, lam, use_ufl=True):
-        d = self.translation(lam, use_ufl)
-        if use_ufl:
-            return ufl.as_vector([self.center0[0] + d[0], self.center0[1] + d[1]])
-        return self.center0 + d
-
-    def gap(self, x, lam):
-        c = self.center(lam)
-        dx = x - c
-        dist = ufl.sqrt(ufl.dot(dx, dx))
-        return dist - self.radius, dx / dist
-
-    def gap_np(self, x, lam):
-        dx = np.asarray(x)[:, :2] - self.center(lam, use_ufl=False)
-        dist = np.linalg.norm(dx, axis=1)
-        return dist - self.radius, dx / dist[:, None]
+    def __init__(self, radius, center, name=None, path=None):
+        super().__init__(center, radius, path=path, name=name)
 
 
 class SphericalPunch(CircularTool):
-    """Hemispherical punch of radius R on the axis, its pole at z = ``z_pole`` + travel * lam."""
+    """Hemispherical punch of radius R [mm] on the axis, its pole at z = ``z_pole`` + travel * lam."""
 
     name = "punch"
 
     def __init__(self, radius, travel, z_pole=0.0):
-        super().__init__(radius, (0.0, z_pole - radius))
         self.travel = float(travel)
+        super().__init__(radius, (0.0, z_pole - radius), path=self._path)
 
-    def translation(self, lam, use_ufl=True):
-        if use_ufl:
-            return (ufl.as_ufl(0.0), self.travel * lam)
-        return np.array([0.0, self.travel * float(lam)])
+    def _path(self, lam, use_ufl):
+        return (ufl.as_ufl(0.0), self.travel * lam) if use_ufl else (0.0, self.travel * float(lam))
 
 
 class DieShoulder(CircularTool):
-    """Fixed die shoulder: circle of radius ``radius`` centred at (r_c, z_c)."""
+    """Fixed die shoulder: circle of radius ``radius`` centred at (r_c, z_c) [mm]."""
 
     name = "die"
 
@@ -168,37 +102,21 @@ class DieShoulder(CircularTool):
         super().__init__(radius, (r_center, z_center))
 
 
-class FlatWall(Tool):
+class FlatWall(Plane):
     """Plane through ``point`` (+ translation) with unit ``normal`` pointing into the body.
 
-    ``path``: knots [(lam, dx, dy), ...] of a piecewise-linear translation (default: fixed).
+    ``path``: knots [(lam, dx, dy), ...] of a piecewise-linear translation [mm] (default: fixed).
     """
 
     name = "wall"
 
     def __init__(self, point=(0.0, 0.0), normal=(0.0, 1.0), path=None, name=None):
-        self.point = np.asarray(point, dtype=float)
-        n = np.asarray(normal, dtype=float)
-        self.normal = n / np.linalg.norm(n)
-        self.path = [(0.0, 0.0, 0.0)] if not path else [tuple(map(float, k)) for k in path]
-        if name:
-            self.name = name
+        self.knots = [(0.0, 0.0, 0.0)] if not path else [tuple(map(float, k)) for k in path]
+        super().__init__(point, normal, path=self._path, name=name)
 
-    def translation(self, lam, use_ufl=True):
-        knots = [k[0] for k in self.path]
-        d = [_piecewise(lam, knots, [k[i] for k in self.path], use_ufl) for i in (1, 2)]
-        return tuple(d) if use_ufl else np.array(d)
-
-    def gap(self, x, lam):
-        d = self.translation(lam)
-        p = ufl.as_vector([self.point[0] + d[0], self.point[1] + d[1]])
-        N = ufl.as_vector([float(self.normal[0]), float(self.normal[1])])
-        return ufl.dot(x - p, N), N
-
-    def gap_np(self, x, lam):
-        p = self.point + self.translation(lam, use_ufl=False)
-        g = (np.asarray(x)[:, :2] - p) @ self.normal
-        return g, np.tile(self.normal, (len(g), 1))
+    def _path(self, lam, use_ufl):
+        t = [k[0] for k in self.knots]
+        return tuple(piecewise_linear(lam, t, [k[i] for k in self.knots], use_ufl) for i in (1, 2))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -206,9 +124,20 @@ class FlatWall(Tool):
 
 
 class ContactPair:
-    """One tool against the body facets tagged ``tag`` (UFL forms + midpoint history)."""
+    """One tool against the body facets tagged ``tag``, with its own normal penalty [N/mm^3],
+    tangential penalty [N/mm^3], friction coefficient and law (UFL forms + nodal history).
+    Made by :meth:`PenaltyContact.add_pair` / :meth:`PenaltyContact.add_tool`."""
 
-    def __init__(self, contact, tool, facet_tags, tag):
+    def __init__(self, contact, tool, facet_tags, tag, *, penalty, friction=0.0, law="quasi-coulomb",
+                 tangential_penalty=None):
+        if law not in LAWS:
+            raise ValueError(f"contact law must be one of {LAWS}, got {law!r}")
+        if not penalty > 0:
+            raise ValueError(f"penalty must be > 0, got {penalty}")
+        if not friction >= 0:
+            raise ValueError(f"friction coefficient must be >= 0, got {friction}")
+        if tangential_penalty is not None and not tangential_penalty > 0:
+            raise ValueError(f"tangential penalty must be > 0, got {tangential_penalty}")
         self.contact = contact
         self.tool = tool
         self.tag = tag
@@ -216,6 +145,13 @@ class ContactPair:
         s = contact.solver
         mesh = s.mesh
         c = contact
+        self.penalty = float(penalty)
+        self.tangential_penalty = float(tangential_penalty if tangential_penalty else penalty)
+        self.friction = float(friction)
+        self.law = law
+        # as Constants in the forms: a new penalty value needs no new JIT compilation
+        self.penalty_c = fem.Constant(mesh, PETSc.ScalarType(self.penalty))
+        self.tangential_penalty_c = fem.Constant(mesh, PETSc.ScalarType(self.tangential_penalty))
         self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags, metadata=NODAL_RULE)(tag)
         # history: [t_n (2), N_n (2), p_n] per node
         cell = mesh.ufl_cell()
@@ -226,25 +162,25 @@ class ContactPair:
         x = c.X + s.u
         g, N = tool.gap(x, lam)
         self.g, self.N = g, N
-        self.p = ufl.conditional(ufl.lt(g, 0.0), -c.penalty_c * g, 0.0)
+        self.p = ufl.conditional(ufl.lt(g, 0.0), -self.penalty_c * g, 0.0)
         w = self.omega
         v = s.v
         traction = self.p * N
         self.t_vec = None
         self.t_scalar = None
-        if c.friction > 0.0:
+        if self.friction > 0.0:
             h = self.hist
             t_n = ufl.as_vector([h[0], h[1]])
             d1, d0 = tool.translation(lam), tool.translation(lam_c)
             ds_rel = (s.u - c.u_c) - ufl.as_vector([d1[0] - d0[0], d1[1] - d0[1]])
-            if c.law == "coulomb":
-                Nf, bound, active = N, c.friction * self.p, 1.0
+            if self.law == "coulomb":
+                Nf, bound, active = N, self.friction * self.p, 1.0
             else:
                 Nf = ufl.as_vector([h[2], h[3]])
-                bound = c.friction * h[4]
+                bound = self.friction * h[4]
                 active = ufl.conditional(ufl.lt(g, 0.0), 1.0, 0.0)
             T = ufl.as_vector([Nf[1], -Nf[0]])
-            t_tr = ufl.dot(T, t_n) - c.tangential_penalty_c * ufl.dot(T, ds_rel)
+            t_tr = ufl.dot(T, t_n) - self.tangential_penalty_c * ufl.dot(T, ds_rel)
             t = ufl.conditional(ufl.gt(t_tr, bound), bound,
                                 ufl.conditional(ufl.lt(t_tr, -bound), -bound, t_tr))
             self.t_scalar = active * t
@@ -342,31 +278,55 @@ class ContactPair:
             return 0.0
         return self._sum(self._tangential_force)
 
+    def nodal_gaps(self):
+        """Gaps [mm] at the owned nodes of the pair's facets (current state), numpy (n,)."""
+        s = self.contact.solver
+        if not hasattr(self, "_nodes"):
+            Vc, vmap = s.V.collapse()
+            facets = self.facet_tags.find(self.tag)
+            blocks = fem.locate_dofs_topological(Vc, s.mesh.topology.dim - 1, facets)
+            blocks = blocks[blocks < Vc.dofmap.index_map.size_local]
+            X = Vc.tabulate_dof_coordinates()[blocks, :2]
+            self._nodes = (X, np.asarray(vmap).reshape(-1, 2)[blocks])
+        X, idx = self._nodes
+        g, _ = self.tool.gap_np(X + s.w.x.array[idx], s.lam)
+        return g
+
+    def max_penetration(self):
+        """Largest -g over the pair's owned nodes, all ranks [mm] (0 if none penetrates)."""
+        g = self.nodal_gaps()
+        local = max(0.0, float(-g.min())) if g.size else 0.0
+        return self.contact.comm.allreduce(local, op=MPI.MAX)
+
 
 class PenaltyContact:
-    """Penalty contact (+ friction) of a StaticSolver's body against rigid tools.
+    """Penalty contact (+ friction) of a StaticSolver's body against rigid tools, one
+    :class:`ContactPair` per (tool, facet group), each with its own penalty, friction and law.
 
     Usage::
 
-        c = PenaltyContact(solver, penalty=eps, friction=0.15, law="quasi-coulomb")
-        c.add_tool(SphericalPunch(50.8, 40.0), facet_tags, lower_tag)
+        c = PenaltyContact(solver)
+        c.add_pair(Profile(...), facet_tags, lower_tag, penalty=eps, friction=0.15)
+        c.add_pair(Circle(...), facet_tags, upper_tag, penalty=eps2, law="coulomb")
         c.attach()          # adds residual + Jacobian terms to the solver (before solver.setup())
         solver.run(..., callback=lambda s: c.commit() or False)
+
+    ``penalty``, ``friction``, ``law`` and ``tangential_penalty`` given here are the contact-wide
+    defaults used by :meth:`add_tool` (``PenaltyContact(solver, eps, friction=0.15)`` then
+    ``add_tool(SphericalPunch(50.8, 40.0), facet_tags, lower_tag)``).
     """
 
-    def __init__(self, solver, penalty, friction=0.0, law="quasi-coulomb", tangential_penalty=None):
+    def __init__(self, solver, penalty=None, friction=0.0, law="quasi-coulomb", tangential_penalty=None):
         if law not in LAWS:
             raise ValueError(f"contact law must be one of {LAWS}, got {law!r}")
-        if penalty <= 0:
+        if penalty is not None and not penalty > 0:
             raise ValueError("penalty must be > 0")
         self.solver = solver
         self.comm = solver.comm
         mesh = solver.mesh
-        self.penalty = float(penalty)
-        self.tangential_penalty = float(tangential_penalty if tangential_penalty else penalty)
-        # as Constants in the forms: a new penalty value needs no new JIT compilation
-        self.penalty_c = fem.Constant(mesh, PETSc.ScalarType(self.penalty))
-        self.tangential_penalty_c = fem.Constant(mesh, PETSc.ScalarType(self.tangential_penalty))
+        self.penalty = None if penalty is None else float(penalty)
+        self.tangential_penalty = None if penalty is None else \
+            float(tangential_penalty if tangential_penalty else penalty)
         self.friction = float(friction)
         self.law = law
         kin = solver.kin
@@ -381,10 +341,24 @@ class PenaltyContact:
         self.pairs: list[ContactPair] = []
         self._attached = False
 
-    def add_tool(self, tool, facet_tags, tag):
-        pair = ContactPair(self, tool, facet_tags, tag)
+    def add_pair(self, tool, facet_tags, tag, *, penalty, friction=0.0, law="quasi-coulomb",
+                 tangential_penalty=None):
+        """Contact of ``tool`` with the facets tagged ``tag``: normal penalty [N/mm^3], Coulomb
+        coefficient (0: no friction term), law ("coulomb" / "quasi-coulomb") and tangential
+        penalty [N/mm^3] (None: the normal penalty).  Call before :meth:`attach`."""
+        if self._attached:
+            raise RuntimeError("add contact pairs before attach()")
+        pair = ContactPair(self, tool, facet_tags, tag, penalty=penalty, friction=friction, law=law,
+                           tangential_penalty=tangential_penalty)
         self.pairs.append(pair)
         return pair
+
+    def add_tool(self, tool, facet_tags, tag):
+        """:meth:`add_pair` with the contact-wide penalty, friction, law and tangential penalty."""
+        if self.penalty is None:
+            raise ValueError("add_tool() needs the contact-wide penalty: PenaltyContact(solver, penalty, ...)")
+        return self.add_pair(tool, facet_tags, tag, penalty=self.penalty, friction=self.friction,
+                             law=self.law, tangential_penalty=self.tangential_penalty)
 
     def residual(self):
         R = None
@@ -451,33 +425,18 @@ class PenaltyContact:
 
     # -- diagnostics -------------------------------------------------------------------------
     def nodal_gaps(self, pair):
-        """Gaps at the owned nodes of the pair's facets (current state), numpy (n,)."""
-        s = self.solver
-        if not hasattr(pair, "_nodes"):
-            V = s.V
-            Vc, vmap = V.collapse()
-            fdim = s.mesh.topology.dim - 1
-            facets = pair.facet_tags.find(pair.tag)
-            blocks = fem.locate_dofs_topological(Vc, fdim, facets)
-            n_owned = Vc.dofmap.index_map.size_local
-            blocks = blocks[blocks < n_owned]
-            X = Vc.tabulate_dof_coordinates()[blocks, :2]
-            vmap = np.asarray(vmap).reshape(-1, 2)
-            pair._nodes = (X, vmap[blocks])
-        X, idx = pair._nodes
-        x = X + s.w.x.array[idx]
-        g, _ = pair.tool.gap_np(x, s.lam)
-        return g
+        """Gaps [mm] at the owned nodes of ``pair``'s facets (current state), numpy (n,)."""
+        return pair.nodal_gaps()
 
     def max_penetration(self):
         """Largest -g over the owned nodes of all pairs, all ranks [mm] (0 if none penetrates)."""
         local = 0.0
         for p in self.pairs:
-            g = self.nodal_gaps(p)
+            g = p.nodal_gaps()
             if g.size:
                 local = max(local, float(-g.min()))
         return self.comm.allreduce(local, op=MPI.MAX)
 
 
 __all__ = ["Tool", "CircularTool", "SphericalPunch", "DieShoulder", "FlatWall", "ContactPair",
-           "PenaltyContact", "default_penalty", "PENALTY_FACTOR", "LAWS"]
+           "PenaltyContact", "default_penalty", "PENALTY_FACTOR", "LAWS", "NODAL_RULE"]

@@ -4,8 +4,13 @@ geometry "axisymmetric": x[0] = r, x[1] = z, tensor axes (r, z, theta), hoop gra
 weight 2 pi r (integrals are totals over the full revolution).
 geometry "plane_strain": axes (x, y, z), zero out-of-plane gradient, weight 1 (per unit depth).
 
-This module holds the ONE internal-force path (``internal_virtual_work``) used by the static
-and the explicit solvers: R_u = int (J/theta) tau : (Grad v F^-1) w dV (theta = J for plain Q1).
+This module holds the definition of the internal force, ``internal_virtual_work``:
+R_u = int (J/theta) tau : (Grad v F^-1) w dV (theta = J for plain Q1). The static solver assembles
+it (and its derivative) with dolfinx. The explicit solver's default route is the fused compiled
+pass of :mod:`fenics_plast.solvers.fused_force` (kinematics, material update and nodal force in
+one numba loop); this UFL residual is the definition that pass is held to
+(``tests/test_fused_force.py``: same force, stress and state to 1e-12, same Taylor run to 1e-10)
+and the explicit solver's ``internal_force="ufl"`` route assembles it directly.
 """
 from __future__ import annotations
 

@@ -51,7 +51,6 @@ class RunOutput:
     * ``history(**row)``: one row of history.csv (header from the first row, flushed every row);
       ``restore_history(rows)`` rewrites it from a checkpoint's rows (resumed runs).
     * ``write_csv(name, columns)``: a table ``name``.csv from ``{column: 1-D array}``.
-    * ``plot_xy(name, x, ys, xlabel, ylabel)``: ``name``.png.
     * ``xdmf_path``: where fields go (``out_dir/fields.xdmf``).
     * ``finish(summary)``: summary.json, written last and atomically.
     * ``log(msg)``: a progress line on stdout, rank 0 only (through the progress bar if one is on).
@@ -101,9 +100,6 @@ class RunOutput:
         xdmf.unlink()
 
     # -- paths ---------------------------------------------------------------------------------
-    def path(self, name: str) -> Path:
-        return self.out_dir / name
-
     @property
     def xdmf_path(self) -> Path:
         return self.out_dir / "fields.xdmf"
@@ -200,41 +196,6 @@ class RunOutput:
         return path
 
     # -- plots ---------------------------------------------------------------------------------
-    def plot_xy(self, name: str, x, ys: Mapping[str, Any], xlabel: str, ylabel: str,
-                title: str | None = None, styles: Mapping[str, str] | None = None) -> Path:
-        """Line plot ``name``(.png). ``ys``: label -> y array (against ``x``), or label -> (x_i, y_i) for a
-        curve with its own abscissa (reference data). ``styles``: label -> matplotlib format string."""
-        path = self.out_dir / (name if name.endswith(".png") else name + ".png")
-        if not self.is_root:
-            return path
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-
-        fig = Figure(figsize=(6.0, 4.2))
-        FigureCanvasAgg(fig)
-        ax = fig.add_subplot()
-        styles = styles or {}
-        for label, y in ys.items():
-            if isinstance(y, tuple) and len(y) == 2:
-                xi, yi = y
-            else:
-                xi, yi = x, y
-            fmt = styles.get(label)
-            if fmt:
-                ax.plot(np.asarray(xi), np.asarray(yi), fmt, label=label)
-            else:
-                ax.plot(np.asarray(xi), np.asarray(yi), label=label)
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel(ylabel)
-        if title:
-            ax.set_title(title)
-        ax.grid(True, alpha=0.3)
-        if len(ys) > 1:
-            ax.legend()
-        fig.tight_layout()
-        fig.savefig(path, dpi=120)
-        return path
-
     def draw_plots(self, kind: str, title: str | None = None, results: Mapping[str, Any] | None = None):
         """The PNGs of scene kind ``kind`` from the files in out_dir; ``results``: the run's results
         (reference lines). Rank 0 draws and returns the paths; other ranks return []. A plot that

@@ -293,3 +293,62 @@ def cells_table(V, positions, cell_values, value_name: str) -> dict[str, np.ndar
     names = [f"{c}{k}" for k in range(1, 5) for c in "xy"] + [value_name]
     table = np.vstack(parts) if parts is not None else np.zeros((0, len(names)))
     return {n: table[:, j] for j, n in enumerate(names)}
+
+
+# ----------------------------------------------------------------------------------------------
+# figures declared by a scene ([plots.<name>])
+
+
+def declared_figures(settings: Mapping[str, Any]) -> list:
+    """The figures of a scene's ``[plots]`` tables; ``settings`` is the scene as a dict (summary.json's
+    ``scene_settings``): plots, outputs and mesh.geometry are read."""
+    figs = []
+    axisym = (settings.get("mesh") or {}).get("geometry") == "axisymmetric"
+    for name, p in (settings.get("plots") or {}).items():
+        title = p.get("title") or name.replace("_", " ")
+        if p["type"] == "history":
+            figs.append(Lines(name, p["x"], {c: c for c in p["y"]}, xlabel=p["x"],
+                              ylabel=", ".join(p["y"]) if len(p["y"]) == 1 else "", title=title))
+        elif p["type"] == "profile":
+            out = p["output"]
+            figs.append(Lines(name, "s0_mm", {"": "value"}, xlabel="reference position along the group [mm]",
+                              ylabel=f"{out} = ln(t/t0)", title=title, source=f"{out}.csv", group="time"))
+        else:
+            figs.append(Cells(name, "eqps", "equivalent plastic strain", title, "final_shape.csv", mirror=axisym,
+                              xlabel="r [mm]" if axisym else "x [mm]", ylabel="z [mm]" if axisym else "y [mm]"))
+    return figs
+
+
+def draw_declared(out_dir: str | Path, settings: Mapping[str, Any] | None = None, title: str | None = None,
+                  render: bool = True) -> list[Path]:
+    """Draw the scene's declared figures into ``out_dir`` from its CSV files; ``settings=None``
+    reads them from the folder's summary.json (``fenics-plast plot DIR``)."""
+    out_dir = Path(out_dir)
+    if not out_dir.is_dir():
+        raise PlotError(f"{out_dir}: no such directory")
+    summary = {}
+    if settings is None:
+        summary = _read_summary(out_dir)
+        settings = summary.get("scene_settings")
+        if not isinstance(settings, dict):
+            raise PlotError(f"{out_dir}/summary.json has no scene_settings")
+    title = title if title is not None else (summary.get("scene") or (settings.get("scene") or {}).get("name"))
+    tables: dict[str, dict[str, np.ndarray]] = {}
+    paths = []
+    for fig in declared_figures(settings):
+        src = out_dir / fig.source
+        if not src.exists():
+            continue
+        data = tables.setdefault(fig.source, read_csv(src))
+        need = ([fig.x, *fig.ys.values()] + ([fig.group] if fig.group else [])
+                if isinstance(fig, Lines) else [fig.value] + _poly_columns())
+        missing = [c for c in need if c not in data]
+        if missing:
+            raise PlotError(f"{src}: no column(s) {', '.join(missing)} for {fig.name}.png "
+                            f"(columns: {', '.join(data)})")
+        path = out_dir / f"{fig.name}.png"
+        if render:
+            full = fig.title + (f"\n{title}" if title else "")
+            (_draw_lines(path, fig, data, summary, full) if isinstance(fig, Lines) else _draw_cells(path, fig, data, full))
+        paths.append(path)
+    return paths

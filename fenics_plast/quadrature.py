@@ -60,7 +60,6 @@ class QuadratureMap:
         arange = np.arange(self.n)
         self.trivial_tau = bool(np.array_equal(self._qdofs, arange))
         self.trivial_a = bool(np.array_equal(self._qdofs_a, arange))
-        self.trivial = self.trivial_tau and self.trivial_a
 
         # compiled expression of Fu and its buffer (None: the caller computes Fu itself and only uses
         # the state arrays, e.g. the explicit solver's fused pass)

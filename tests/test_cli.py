@@ -1,5 +1,6 @@
 """The CLI: bad scene files exit 2 without writing anything; the run/summary/error plumbing
-(with a stand-in runner); the deformation-table reader."""
+(with a stand-in runner); the deformation-table reader; a material-point path that fails exits 1
+with one error line."""
 import json
 import subprocess
 import sys
@@ -66,6 +67,21 @@ def test_point_bad_scene_exit_2(tmp_path):
     scene.write_text(GOOD.replace("nu = 0.29", "nu = 0.7"))
     r = run_cli("point", scene, "--path", "uniaxial", "--to", "0.5", "--steps", "10", cwd=tmp_path)
     assert r.returncode == 2 and "material.nu" in r.stderr
+
+
+def test_point_no_lateral_equilibrium_exit_1(tmp_path):
+    """Seed model, log strain -2 in one step: the Newton iteration on the lateral stretch finds no
+    equilibrium (the step is too large). One ``error:`` line, exit 1, no traceback, no CSV."""
+    pytest.importorskip("numba")
+    scene = tmp_path / "good.toml"
+    scene.write_text(GOOD)
+    out = tmp_path / "p.csv"
+    r = run_cli("point", scene, "--path", "uniaxial", "--to", "-2", "--steps", "1", "--set", "material.model=seed",
+                "--out", out, cwd=tmp_path)
+    assert r.returncode == 1, r.stdout + r.stderr
+    assert r.stderr.startswith("error: ") and r.stderr.count("\n") == 1, r.stderr
+    assert "lateral equilibrium not found at step 1" in r.stderr and "Traceback" not in r.stderr
+    assert not out.exists()
 
 
 def test_keys_prints_doc():

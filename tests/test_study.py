@@ -2,11 +2,14 @@
 
 (a) The Richardson extrapolation recovers the exact order and limit of manufactured sequences
 (constant and varying refinement ratio) and refuses non-monotone ones; (b) the references of a
-study: finest run, Richardson, fallback, first run; (c) a real, short Taylor study through the CLI:
-study.csv/md/png exist, the numbers in study.csv are the runs' summary.json values, the finest
-run's error is 0 and the others' errors are (value - ref)/|ref|, an invalid value and a time step
-above the stable limit are rows with their reasons; --reuse reruns nothing; (d) a subprocess that
-exits 2 becomes an "invalid" row; bad study arguments exit 2.
+study: finest run, Richardson, fallback, first run; the ordered keys (old and new scene format,
+fnmatch patterns); the key results, info columns and published references come from the runs'
+summary.json, and the published ones are left out when a non-discretisation key is varied or set;
+(c) a real, short Taylor study through the CLI: study.csv/md/png exist, the numbers in study.csv
+are the runs' summary.json values, the finest run's error is 0 and the others' errors are
+(value - ref)/|ref|, an invalid value and a time step above the stable limit are rows with their
+reasons; --reuse reruns nothing; (d) a subprocess that exits 2 becomes an "invalid" row; bad study
+arguments exit 2; ``python -m fenics_plast.study`` runs.
 """
 import csv
 import json
@@ -24,6 +27,9 @@ REPO = Path(__file__).resolve().parent.parent
 TAYLOR = REPO / "demos" / "taylor_bar.toml"
 SERIAL = int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1")) == 1
 needs_serial = pytest.mark.skipif(not SERIAL, reason="starts its own processes")
+#: What the Taylor runner declares in summary.json (key_results, info_results).
+TAYLOR_KEYS = ["final_radius_mm", "final_length_mm", "max_eqps"]
+TAYLOR_INFO = ["energy_balance_error", "dt_s"]
 
 
 # -- (a) Richardson -----------------------------------------------------------------------------
@@ -104,7 +110,7 @@ def test_cheapest_within():
     the limit 1.11 + 0.01/9; the errors are -10 %, -1 %, -0.1 %."""
     varies = [st.parse_vary("mesh.refine=1,2,4")]
     runs = _runs(varies, [1.0, 1.1, 1.11])
-    study = st.Study(scene=TAYLOR, kind="x", scene_name="x", varies=varies, sets=[], keys=["x"], info=[],
+    study = st.Study(scene=TAYLOR, scene_name="x", varies=varies, sets=[], keys=["x"], info=[],
                      out=Path("."), runs=runs)
     study.refs = st.references(runs, varies, ["x"])
     assert study.refs[0].values["x"] == pytest.approx(1.11 + 0.01 / 9, rel=1e-12)
@@ -113,6 +119,80 @@ def test_cheapest_within():
     assert st.cheapest_within(study, "x", 0.02) is runs[1]
     assert st.cheapest_within(study, "x", 0.005) is runs[2]
     assert st.cheapest_within(study, "x", 1e-4) is None
+
+
+def test_ordered_keys():
+    """Discretisation keys of the new scene format (fnmatch patterns) and of the old one."""
+    finer_if_larger = ["mesh.refine", "mesh.parameters.cells_radial", "mesh.parameters.cells", "analysis.time_steps",
+                       "analysis.increments", "steps.load.increments", "contact.punch.penalty",
+                       "contact.punch.tangential_penalty", "mesh.cells_radial", "solver.increments",
+                       "contact.penalty"]
+    finer_if_smaller = ["analysis.dt_safety", "analysis.max_increment", "steps.unload.max_increment",
+                        "analysis.min_increment", "analysis.rtol", "analysis.atol", "solver.dt_safety",
+                        "solver.max_increment"]
+    assert all(st.order_sign(k) == +1 for k in finer_if_larger)
+    assert all(st.order_sign(k) == -1 for k in finer_if_smaller)
+    for k in ("loading.velocity", "material.model", "contact.law", "contact.punch.law", "mesh.parameters.radius",
+              "steps.load.end"):
+        assert st.order_sign(k) is None, k
+    varies = [st.parse_vary("analysis.dt_safety=1.0,0.5,0.8")]
+    refs = st.references(_runs(varies, [3.0, 1.0, 2.0]), varies, ["x"])
+    assert refs[0].values["x"] == 1.0 and refs[0].run.settings["analysis.dt_safety"] == "0.5"
+
+
+def _fake_execute(run, scene, sets, run_dir, **kwargs):
+    """Stand-in for a run process: a summary that declares its outputs (refine r: R = 7.2 - 0.4/r^2)."""
+    settings = dict(s.split("=", 1) for s in sets)
+    r = float(settings.get("mesh.refine", 1))
+    run.status = "ok"
+    run.summary = {"final_radius_mm": 7.2 - 0.4 / r ** 2, "max_eqps": 3.0 + 0.1 * r, "dt_s": 1e-8,
+                   "energy_balance_error": 1e-5, "wall_time_s": r, "cells": int(216 * r * r),
+                   "key_results": ["final_radius_mm", "max_eqps"], "info_results": ["dt_s", "max_eqps"],
+                   "references": {"final_radius_mm": {"value": 7.11, "source": "seed paper, Table 3"},
+                                  "not_a_key": {"value": 1.0, "source": "x"}}}
+    return run
+
+
+def test_declared_outputs_and_published_references(tmp_path, monkeypatch):
+    """Key results, info columns and published references come from the runs' summary.json; the
+    published ones are compared with only when the study changes discretisation keys alone."""
+    monkeypatch.setattr("fenics_plast.study.driver.execute", _fake_execute)
+    quiet = dict(log=lambda m: None)
+    s = st.run_study(TAYLOR, [st.parse_vary("mesh.refine=1,2,4")], tmp_path / "a", ["solver.dt_safety=0.5"], **quiet)
+    assert s.keys == ["final_radius_mm", "max_eqps"] and s.info == ["dt_s"]
+    assert s.paper == {"final_radius_mm": 7.11} and s.paper_sources == {"final_radius_mm": "seed paper, Table 3"}
+    rows = _read_csv(tmp_path / "a" / "study.csv")
+    assert float(rows[0]["err_paper_final_radius_mm"]) == pytest.approx((6.8 - 7.11) / 7.11, rel=1e-12)
+    assert "err_paper_max_eqps" not in rows[0] and "err_paper_not_a_key" not in rows[0]
+    assert float(rows[2]["ref_final_radius_mm"]) == pytest.approx(7.2, rel=1e-12)     # Richardson, p = 2
+    md = (tmp_path / "a" / "study.md").read_text()
+    assert "## Against the published references" in md and "`final_radius_mm` = 7.11: seed paper, Table 3" in md
+    # a physical key varied or set: the published problem is not the one run
+    for varies, sets in (([st.parse_vary("mesh.refine=1,2"), st.parse_vary("loading.velocity=200,227")], []),
+                         ([st.parse_vary("mesh.refine=1,2")], ["loading.end_time_us=5"])):
+        out = tmp_path / f"b{len(sets)}"
+        s = st.run_study(TAYLOR, varies, out, sets, **quiet)
+        assert s.paper == {} and "loading." in s.paper_note
+        assert not any(c.startswith("err_paper_") for c in _read_csv(out / "study.csv")[0])
+        md = (out / "study.md").read_text()
+        assert "Published references (`final_radius_mm`) not compared" in md and "## Against" not in md
+    # --results overrides the declared key results
+    s = st.run_study(TAYLOR, [st.parse_vary("mesh.refine=1,2")], tmp_path / "c", results=["cells"], **quiet)
+    assert s.keys == ["cells"] and s.info == ["dt_s", "max_eqps"] and s.paper == {}
+
+
+def test_no_declared_key_results(tmp_path, monkeypatch):
+    """Runs that declare nothing: a table without key results and a hint, not a failure."""
+    def bare(run, *args, **kwargs):
+        run.status, run.summary = "ok", {"final_radius_mm": 7.0, "wall_time_s": 1.0}
+        return run
+    monkeypatch.setattr("fenics_plast.study.driver.execute", bare)
+    said = []
+    s = st.run_study(TAYLOR, [st.parse_vary("mesh.refine=1,2")], tmp_path, log=said.append)
+    assert s.keys == [] and s.info == [] and all(r.ok for r in s.runs)
+    assert any("--results" in m for m in said)
+    assert "--results k1,k2" in (tmp_path / "study.md").read_text()
+    assert _read_csv(tmp_path / "study.csv")[0]["status"] == "ok"
 
 
 def test_parse_vary():
@@ -160,15 +240,16 @@ def test_short_taylor_study(tmp_path):
         assert by[name]["reason"] == summary["error"]
         assert by[name]["err_final_radius_mm"] == ""
     # the successful runs: every number is the summary's
-    keys = st.KEY_RESULTS["taylor_bar"]
+    keys = TAYLOR_KEYS
     for name in ("04_refine-1_steps-200", "06_refine-2_steps-200"):
         row = by[name]
         assert row["status"] == "ok" and row["reason"] == ""
         summary = json.loads((out / "runs" / name / "summary.json").read_text())
-        for c in ["wall_time_s", "cells", "dofs", "steps", "mpi_ranks"] + keys + st.INFO_COLUMNS["taylor_bar"]:
+        for c in ["wall_time_s", "cells", "dofs", "steps", "mpi_ranks"] + keys + TAYLOR_INFO:
             assert float(row[c]) == summary[c], c
         assert summary["overrides"][-2:] == [f"mesh.refine={row['mesh.refine']}", "solver.steps=200"]
         assert summary["steps"] == 200
+        assert summary["key_results"] == keys and summary["info_results"] == TAYLOR_INFO
     fine, coarse = by["06_refine-2_steps-200"], by["04_refine-1_steps-200"]
     assert int(fine["cells"]) == 4 * int(coarse["cells"]) == 864
     for k in keys:
@@ -178,7 +259,7 @@ def test_short_taylor_study(tmp_path):
         assert float(coarse[f"err_{k}"]) == pytest.approx(e, rel=1e-12, abs=1e-15)
     # the radius grows with refinement at 5 us (measured: 4.33 -> 4.43 mm): a real difference
     assert float(coarse["err_final_radius_mm"]) < -0.01
-    # 5 us is not the paper's 80 us scene: no paper columns
+    # 5 us (--set loading.end_time_us) is not the paper's 80 us scene: no paper columns
     assert "err_paper_final_radius_mm" not in rows[0]
     md = (out / "study.md").read_text()
     assert "exceeds the stable limit" in md and "| 06_refine-2_steps-200 | 2 | 200 | ok |" in md
@@ -210,6 +291,9 @@ def test_bad_study_arguments_exit_2(tmp_path, capsys):
     assert "material.nu" in capsys.readouterr().err
     assert st.main([str(TAYLOR), "--vary", "mesh.refine=1,2", "--vary", "mesh.refine=3", "--out", str(out)]) == 2
     assert not (out / "study.csv").exists()
+    r = subprocess.run([sys.executable, "-m", "fenics_plast.study", str(TAYLOR), "--vary", "mesh.refine",
+                        "--out", str(out)], capture_output=True, text=True, cwd=REPO, timeout=120)
+    assert r.returncode == 2 and r.stderr.startswith("error: ") and "must have the form" in r.stderr
 
 
 @needs_serial
@@ -224,5 +308,5 @@ def test_study_under_mpirun_matches_serial(tmp_path):
     assert r1.ok and r2.ok, (r1.reason, r2.reason)
     assert r1.summary["mpi_ranks"] == 1 and r2.summary["mpi_ranks"] == 2
     assert r2.summary["steps"] == r1.summary["steps"]
-    for k in st.KEY_RESULTS["taylor_bar"]:
+    for k in TAYLOR_KEYS:
         assert r2.summary[k] == pytest.approx(r1.summary[k], rel=1e-9), k

@@ -62,11 +62,6 @@ class Material:
         lam = self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
         return lam, self.E / (2 * (1 + self.nu))
 
-    @property
-    def bulk_modulus(self) -> float:
-        lam, mu = self.lame
-        return lam + 2 * mu / 3
-
     def wave_speed(self, density: float) -> float:
         """Dilatational wave speed sqrt((lambda + 2 mu)/rho) [mm/s] for density in tonne/mm^3."""
         lam, mu = self.lame

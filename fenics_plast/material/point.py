@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import RunError
 from . import Material
 
 _I = np.eye(3)
@@ -45,7 +46,8 @@ def uniaxial_stress(material: Material, log_strain: float, steps: int, tol: floa
                     max_iter: int = 30) -> dict[str, np.ndarray]:
     """Uniaxial stress along axis 0 to the axial logarithmic strain `log_strain` in `steps` equal steps.
 
-    The lateral stretch is found by Newton on tau_11 = tau_22 = 0 with the consistent tangent.
+    The lateral stretch is found by Newton on tau_11 = tau_22 = 0 with the consistent tangent;
+    :class:`fenics_plast.errors.RunError` when it does not converge in ``max_iter`` iterations.
     Columns: log_strain, axial_stretch, lateral_stretch, kirchhoff_axial_MPa, cauchy_axial_MPa,
     eqps, J, plastic_volume_ratio.
     """
@@ -66,7 +68,8 @@ def uniaxial_stress(material: Material, log_strain: float, steps: int, tol: floa
                 break
             new_t -= r / ((a[0, 1, 1, 1, 1] + a[0, 1, 1, 2, 2]) / new_t)
         else:
-            raise RuntimeError(f"uniaxial_stress: lateral equilibrium not found at step {k} (residual {r:.3e} MPa)")
+            raise RunError(f"uniaxial_stress: lateral equilibrium not found at step {k} of {steps} (log strain "
+                           f"{eps:.4g}, residual {r:.3e} MPa); smaller steps (more of them) may converge")
         lam_a, lam_t, binv, eqps = new_a, new_t, b_new, e_new
         F = np.diag([lam_a, lam_t, lam_t])
         J = lam_a * lam_t ** 2

@@ -131,7 +131,9 @@ def run(scene, output) -> dict:
                     min_radius_mm=float(min(hist["neck_radius_mm"])),
                     cells=info["cells"], dofs=s.dofs, converged=converged,
                     increments=len(s.increments), newton_iterations=s.total_iterations,
-                    element=m.element)
+                    element=m.element,
+                    key_results=["max_force_kN", "elongation_at_max_mm", "min_radius_mm"],
+                    info_results=["final_elongation_mm"], references={})
 
     try:
         s.run(increments=sv.increments, min_increment=sv.min_increment, max_increment=sv.max_increment,

@@ -219,7 +219,10 @@ def run(scene, output) -> dict:
                    tangential_penalty_N_mm3=info["tangential_penalty"],
                    cells=info["cells"], dofs=s.dofs, converged=converged,
                    increments=len(s.increments), newton_iterations=s.total_iterations,
-                   element=m.element)
+                   element=m.element,
+                   key_results=["final_punch_force_kN", "max_punch_force_kN", "pole_thickness_strain",
+                                "min_thickness_strain"],
+                   info_results=["max_penetration_mm", "final_punch_displacement_mm"], references={})
         if THICKNESS_TRAVEL_MM in thick:
             r20, e20 = thick[THICKNESS_TRAVEL_MM]
             k20 = int(np.argmin(e20))

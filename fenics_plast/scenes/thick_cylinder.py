@@ -133,7 +133,9 @@ def run(scene, output) -> dict:
                pressure_reached=bool(hist["pressure_MPa"][-1] >= scene.loading.pressure),
                cells=r["cells"], dofs=r["dofs"], converged=r["converged"],
                increments=len(s.increments), newton_iterations=s.total_iterations,
-               element=m.element, setup_and_solve_s=time.perf_counter() - t0)
+               element=m.element, setup_and_solve_s=time.perf_counter() - t0,
+               key_results=["limit_pressure_MPa", "final_pressure_MPa"],
+               info_results=["final_inner_displacement_mm"], references={})
     hard = scene.material.get("hardening") if hasattr(scene.material, "get") else None
     if hard is not None and getattr(hard, "law", None) == "linear" and getattr(hard, "modulus", 0) == 0:
         res["analytic_limit_pressure_MPa"] = limit_pressure(hard.yield_stress, m.inner_radius, m.outer_radius)

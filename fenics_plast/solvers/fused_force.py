@@ -14,11 +14,16 @@ The compiled-loop twin of the UFL path (``Kinematics.Fu`` + ``QuadratureMap.upda
 with W_q = w(X_q) |det J0(X_q)| q_w the reference quadrature weights (w = 2 pi R in
 axisymmetry) and Grad the reference gradient. Element "q1" uses theta = J (no F-bar).
 
-Why a second implementation: the dolfinx route costs ~0.7 ms per explicit step on the 216-cell
-Taylor bar (generated kernels ~1 us per cell, packing and Python overhead per call); this pass
-costs a fraction of that. The UFL form stays the definition: ``tests/test_fused_force.py`` checks
-that both give the same force and the same run to round-off, and ``solver.internal_force = "ufl"``
-selects the dolfinx route.
+This pass is the default route of the explicit solver (``solver.internal_force = "fused"``): the
+dolfinx route costs ~0.7 ms per explicit step on the 216-cell Taylor bar (generated kernels ~1 us
+per cell, packing and Python overhead per call); this pass costs a fraction of that. The UFL
+residual stays the definition the pass is held to: ``tests/test_fused_force.py`` checks that both
+give the same force, stress and state and the same run to round-off; ``solver.internal_force =
+"ufl"`` selects the dolfinx route.
+
+This module holds the internal-force pass only; the time integration that calls it (step loop,
+velocity-Verlet updates, prescribed motion, loads, contact) is
+:mod:`fenics_plast.solvers.time_integration`.
 """
 from __future__ import annotations
 
@@ -208,47 +213,3 @@ def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lam, mu, la
     no_tangent = np.empty((1, 3, 3, 3, 3))
     kernels.update_points(model, Fu, binv, eqps, lam, mu, law, hp, yield_tol, tau, binv, eqps, no_tangent, False)
     return _force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f)
-
-
-@_njit
-def kick_drift(v, a, f, du, u, u_n, dt, n):
-    """v += dt/2 a; du = dt v; u_n = u (all entries); u[:n] += du. Returns du . f (owned) [N mm]."""
-    u_n[:] = u
-    w = 0.0
-    for i in range(n):
-        v[i] += 0.5 * dt * a[i]
-        du[i] = dt * v[i]
-        u[i] += du[i]
-        w += du[i] * f[i]
-    return w
-
-
-@_njit
-def kick(v, a, f, free_minv, du, dt, n):
-    """a = -f / M (0 on constrained dofs); v += dt/2 a. Returns du . f (owned) [N mm]."""
-    w = 0.0
-    for i in range(n):
-        a[i] = -f[i] * free_minv[i]
-        v[i] += 0.5 * dt * a[i]
-        w += du[i] * f[i]
-    return w
-
-
-@_njit
-def advance(nsteps, dt, v, a, free_minv, du, n, force_args, work):
-    """``nsteps`` central-difference steps of size dt in one call (serial runs).
-
-    force_args : the arguments of :func:`internal_force` (u and u_n first, f last), whose arrays are
-    updated in place. work : (1,) internal work [N mm], incremented step by step exactly as
-    :meth:`ExplicitDynamics.step` does (so the result does not depend on how steps are grouped).
-    Returns (steps done, finite): stops after the first step whose stress or force is not finite.
-    """
-    u, u_n, f = force_args[0], force_args[1], force_args[-1]
-    for k in range(nsteps):
-        w_old = kick_drift(v, a, f, du, u, u_n, dt, n)
-        ok = internal_force(*force_args)
-        w_new = kick(v, a, f, free_minv, du, dt, n)
-        work[0] += 0.5 * (w_old + w_new)
-        if not ok:
-            return k + 1, False
-    return nsteps, True

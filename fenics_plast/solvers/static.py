@@ -98,7 +98,8 @@ class StaticSolver:
         self.lam = 0.0
         self._extra_R = []
         self._extra_J = []
-        self._bcs = []          # (DirichletBC, g Function, g0 array)
+        self._bcs = []          # (DirichletBC, g Function, g0 array): g = lam * g0
+        self._prescribed = []   # (DirichletBC, g Function, X (3, n), value(X, t)): g = value(X, lam)
         self.options = dict(rtol=rtol, atol=atol, max_iterations=max_iterations,
                             linesearch=linesearch, stol=stol)
         self._setup_done = False
@@ -146,6 +147,20 @@ class StaticSolver:
         self._bcs.append((bc, g, g0))
         return bc
 
+    def add_prescribed(self, component, facet_tags, tag, value):
+        """u[component] = value(X, lam) on facets: ``value(X (3, n) reference coordinates, lam) -> (n,)``
+        is evaluated at every load factor (tables and expressions of x, y, z, t of a scene file)."""
+        fdim = self.mesh.topology.dim - 1
+        Vsub = self.V.sub(component)
+        Vc, _ = Vsub.collapse()
+        dofs = fem.locate_dofs_topological((Vsub, Vc), fdim, self._facets(facet_tags, tag))
+        g = fem.Function(Vc)
+        X = Vc.tabulate_dof_coordinates().T.copy()
+        g.x.array[:] = np.asarray(value(X, self.lam), dtype=float) * np.ones(X.shape[1])
+        bc = fem.dirichletbc(g, dofs, Vsub)
+        self._prescribed.append((bc, g, X, value))
+        return bc
+
     def add_residual(self, R, J=None):
         """Extra residual term (e.g. a pressure, using self.load, self.u, self.v)."""
         self._extra_R.append(R)
@@ -172,7 +187,7 @@ class StaticSolver:
 
     @property
     def bcs(self):
-        return [b[0] for b in self._bcs]
+        return [b[0] for b in self._bcs] + [b[0] for b in self._prescribed]
 
     # -- PETSc objects ------------------------------------------------------------------------
     def setup(self):
@@ -294,6 +309,8 @@ class StaticSolver:
         self.load.value = self.lam
         for bc, g, g0 in self._bcs:
             g.x.array[:] = self.lam * g0
+        for bc, g, X, value in self._prescribed:
+            g.x.array[:] = np.asarray(value(X, self.lam), dtype=float) * np.ones(X.shape[1])
 
     def solve_increment(self, lam, lam_prev_step=None):
         """Newton solve at load factor lam from the last converged state. Returns (ok, its, reason)."""

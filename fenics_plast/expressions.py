@@ -1,0 +1,349 @@
+"""Safe values for scene files: constants, piecewise-linear tables and expressions of x, y, z, t.
+
+A scene file is data: reading one must never run code. ``eval`` would run any Python the file
+holds (``__import__('os').system(...)``), and numexpr 2.8.4 had a code-execution flaw of its own,
+so neither is used. An expression is parsed with :mod:`ast` and checked against a whitelist, then
+evaluated by walking our own small tree (never compiled), in numpy (float64) or in UFL.
+
+Accepted in an expression (at most 500 characters, nesting depth at most 40):
+
+* numbers (every literal becomes a float, so ``9**9**9`` is a float power that overflows to inf,
+  which evaluation reports, never a huge-integer computation); ``True``, strings, complex refused;
+* the symbols (default ``x, y, z, t``) and the constants ``pi`` and ``e``;
+* unary ``+ -`` and binary ``+ - * / **``;
+* calls of ``sin cos tan asin acos atan atan2 sinh cosh tanh sqrt exp log abs min max`` with
+  positional arguments only (``atan2``, ``min``, ``max`` take two, the others one).
+
+Anything else (attributes, indexing, lambdas, comparisons, ``and``/``or``, ``a if c else b``,
+comprehensions, keyword arguments, f-strings, dunder names, ...) raises :class:`ExpressionError`
+naming the scene key, the construct and where it is.
+
+:func:`parse_value` turns a TOML value (a number, an expression string, or an inline table
+``{ t = [...], value = [...] }``) into a :class:`Value` with one interface for all three forms.
+"""
+from __future__ import annotations
+
+import ast
+import math
+import operator
+
+import numpy as np
+import ufl
+
+MAX_LENGTH = 500
+MAX_DEPTH = 40
+SPACE = ("x", "y", "z")
+CONSTANTS = {"pi": math.pi, "e": math.e}
+#: name -> (number of arguments, numpy function, UFL function)
+FUNCTIONS = {
+    "sin": (1, np.sin, ufl.sin), "cos": (1, np.cos, ufl.cos), "tan": (1, np.tan, ufl.tan),
+    "asin": (1, np.arcsin, ufl.asin), "acos": (1, np.arccos, ufl.acos),
+    "atan": (1, np.arctan, ufl.atan), "atan2": (2, np.arctan2, ufl.atan_2),
+    "sinh": (1, np.sinh, ufl.sinh), "cosh": (1, np.cosh, ufl.cosh), "tanh": (1, np.tanh, ufl.tanh),
+    "sqrt": (1, np.sqrt, ufl.sqrt), "exp": (1, np.exp, ufl.exp), "log": (1, np.log, ufl.ln),
+    "abs": (1, np.abs, abs), "min": (2, np.minimum, ufl.min_value), "max": (2, np.maximum, ufl.max_value),
+}
+_BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Pow: "**"}
+_APPLY = {"+": operator.add, "-": operator.sub, "*": operator.mul, "/": operator.truediv,
+          "**": operator.pow}
+_OP_TEXT = {ast.FloorDiv: "//", ast.Mod: "%", ast.MatMult: "@", ast.LShift: "<<", ast.RShift: ">>",
+            ast.BitOr: "|", ast.BitXor: "^", ast.BitAnd: "&", ast.Not: "not", ast.Invert: "~"}
+_CONSTRUCTS = {ast.Attribute: "attribute access", ast.Subscript: "indexing", ast.Lambda: "lambda",
+               ast.Compare: "comparison", ast.BoolOp: "boolean operator", ast.IfExp: "conditional "
+               "expression", ast.ListComp: "comprehension", ast.SetComp: "comprehension",
+               ast.DictComp: "comprehension", ast.GeneratorExp: "comprehension",
+               ast.JoinedStr: "f-string", ast.Starred: "starred argument", ast.Tuple: "tuple",
+               ast.List: "list", ast.Dict: "dict", ast.Set: "set", ast.NamedExpr: "assignment"}
+
+
+class ExpressionError(ValueError):
+    """An invalid value in a scene file; the message names the scene key and what is wrong."""
+
+
+def _quote(text):
+    return f'"{text}"' if len(text) <= 80 else f'"{text[:77]}..."'
+
+
+def _finite(v):
+    """float(v) for a finite int/float (not bool), else None."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return None
+    try:
+        return float(v) if math.isfinite(float(v)) else None
+    except OverflowError:
+        return None
+
+
+class _Builder:
+    """Checks a Python AST against the whitelist and turns it into nested tuples:
+    ("num", float), ("sym", name), ("neg", a), ("call", name, args), (op, a, b) for op in + - * / **."""
+
+    def __init__(self, text, where, symbols):
+        self.text, self.where, self.symbols, self.used = text, where, tuple(symbols), set()
+
+    def fail(self, what, node=None, hint=""):
+        at = f" at column {node.col_offset + 1}" if hasattr(node, "col_offset") else ""
+        raise ExpressionError(f"{self.where}: {what}{at} in {_quote(self.text)}{hint}")
+
+    def build(self, node, depth=1):
+        if depth > MAX_DEPTH:
+            self.fail(f"expression nests too deeply (more than {MAX_DEPTH} levels)")
+        seg = ast.get_source_segment(self.text, node) or type(node).__name__
+        if isinstance(node, ast.Constant):
+            v = node.value
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                kind = {bool: "boolean", str: "string", bytes: "bytes", complex: "complex number"}
+                self.fail(f"{kind.get(type(v), 'constant')} {seg} is not allowed (numbers only)", node)
+            if _finite(v) is None:
+                self.fail(f"number {seg} is not finite", node)
+            return ("num", _finite(v))
+        if isinstance(node, ast.Name):
+            if "__" in node.id:
+                self.fail(f"dunder name '{node.id}' is not allowed", node)
+            if node.id in self.symbols:
+                self.used.add(node.id)
+                return ("sym", node.id)
+            if node.id in CONSTANTS:
+                return ("num", CONSTANTS[node.id])
+            if node.id in FUNCTIONS:
+                self.fail(f"function '{node.id}' used without a call", node, f" (write {node.id}(...))")
+            self.fail(f"unknown symbol '{node.id}'", node, f" (allowed: {', '.join(self.symbols)})")
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.UAdd, ast.USub)):
+            a = self.build(node.operand, depth + 1)
+            return a if isinstance(node.op, ast.UAdd) else ("neg", a)
+        if isinstance(node, ast.BinOp) and type(node.op) in _BINOPS:
+            return (_BINOPS[type(node.op)], self.build(node.left, depth + 1), self.build(node.right, depth + 1))
+        if isinstance(node, (ast.UnaryOp, ast.BinOp)):
+            self.fail(f"operator '{_OP_TEXT.get(type(node.op), type(node.op).__name__)}' is not allowed", node)
+        if isinstance(node, ast.Call):
+            return self.call(node, seg, depth)
+        what = _CONSTRUCTS.get(type(node), f"construct {type(node).__name__}")
+        self.fail(f"{what} '{seg}' is not allowed", node)
+
+    def call(self, node, seg, depth):
+        name = node.func.id if isinstance(node.func, ast.Name) else None
+        if name is None:
+            self.fail(f"only named functions can be called, not '{seg}'", node)
+        if "__" in name:
+            self.fail(f"dunder name '{name}' is not allowed", node)
+        if name not in FUNCTIONS:
+            self.fail(f"unknown function '{name}'", node, f" (allowed: {', '.join(FUNCTIONS)})")
+        for a in node.args:
+            if isinstance(a, ast.Starred):
+                self.fail(f"starred argument '{ast.get_source_segment(self.text, a)}' is not allowed", a)
+        if node.keywords:
+            k = node.keywords[0]
+            self.fail(f"keyword argument '{ast.get_source_segment(self.text, k)}' is not allowed", k)
+        n = FUNCTIONS[name][0]
+        if len(node.args) != n:
+            self.fail(f"{name} takes {n} argument{'s' * (n > 1)}, got {len(node.args)} ('{seg}')", node)
+        return ("call", name, tuple(self.build(a, depth + 1) for a in node.args))
+
+
+def _walk(node, env, backend):
+    """Evaluate a checked tree; backend 0 is numpy (float64), 1 is UFL."""
+    tag = node[0]
+    if tag == "num":
+        return np.float64(node[1]) if backend == 0 else node[1]
+    if tag == "sym":
+        return env[node[1]]
+    if tag == "neg":
+        return -_walk(node[1], env, backend)
+    if tag == "call":
+        return FUNCTIONS[node[1]][1 + backend](*(_walk(a, env, backend) for a in node[2]))
+    return _APPLY[tag](_walk(node[1], env, backend), _walk(node[2], env, backend))
+
+
+def parse_expression(text, where, symbols=("x", "y", "z", "t")) -> "Expression":
+    """Parse a scene-file expression (see the module docstring for what is accepted)."""
+    if not isinstance(text, str):
+        raise ExpressionError(f"{where}: an expression must be a string, got {type(text).__name__}")
+    if len(text) > MAX_LENGTH:
+        raise ExpressionError(f"{where}: expression is {len(text)} characters long (at most {MAX_LENGTH})")
+    text = text.strip()
+    b = _Builder(text, where, symbols)
+    if not text:
+        b.fail("empty expression")
+    level = 0
+    for c in text:          # the parser does not nest parentheses into the AST: bound them here
+        level += (c in "([{") - (c in ")]}")
+        if level > MAX_DEPTH:
+            b.fail(f"expression nests too deeply (more than {MAX_DEPTH} levels of brackets)")
+    try:
+        tree = ast.parse(text, mode="eval")
+    except SyntaxError as exc:
+        line = f"line {exc.lineno}, " if (exc.lineno or 1) > 1 else ""
+        col = exc.offset if exc.offset else len(text.splitlines()[-1]) + 1
+        b.fail(f"does not parse: {exc.msg} at {line}column {col}")
+    except (ValueError, RecursionError, MemoryError) as exc:
+        b.fail(f"does not parse: {exc}")
+    return Expression(text, where, b.build(tree.body), frozenset(b.used), tuple(symbols))
+
+
+class Expression:
+    """A checked expression: ``.text``, ``.symbols`` (those it uses), ``.evaluate``, ``.to_ufl``."""
+
+    def __init__(self, text, where, tree, symbols, order=("x", "y", "z", "t")):
+        self.text, self.where, self.tree, self.symbols = text, where, tree, symbols
+        self._order = [s for s in order if s in symbols]
+
+    def __repr__(self):
+        return f"Expression({self.text!r})"
+
+    def _env(self, given):
+        missing = [s for s in self._order if given.get(s) is None]
+        if missing:
+            raise ExpressionError(f"{self.where}: {_quote(self.text)} uses {', '.join(missing)} "
+                                  f"but no value was given for {'it' if len(missing) == 1 else 'them'}")
+        return {s: given[s] for s in self._order}
+
+    def evaluate(self, x=None, y=None, z=None, t=None, *, check_finite=True, **others) -> np.ndarray:
+        """Values in float64, broadcast over the arrays given for the symbols used.
+
+        With ``check_finite`` a nan or inf result raises, naming the first point that gives it."""
+        env = self._env(dict(x=x, y=y, z=z, t=t, **others))
+        with np.errstate(all="ignore"):
+            try:
+                env = {k: np.asarray(v, dtype=float) for k, v in env.items()}
+                r = np.asarray(_walk(self.tree, env, 0), dtype=float)
+            except ValueError as exc:
+                raise ExpressionError(f"{self.where}: cannot evaluate {_quote(self.text)}: {exc}") from None
+        bad = ~np.isfinite(r)
+        if check_finite and bad.any():
+            i = tuple(np.argwhere(bad)[0])
+            at = ", ".join(f"{s}={np.broadcast_to(env[s], r.shape)[i]:g}" for s in self._order)
+            raise ExpressionError(f"{self.where}: {_quote(self.text)} gives a non-finite value "
+                                  f"({r[i]})" + (f" at {at}" if at else ""))
+        return r
+
+    def to_ufl(self, x=None, y=None, z=None, t=None, **others):
+        """The same expression in UFL of the given UFL arguments (SpatialCoordinate, Constant)."""
+        env = self._env(dict(x=x, y=y, z=z, t=t, **others))
+        try:
+            return ufl.as_ufl(_walk(self.tree, env, 1))
+        except (ArithmeticError, ValueError, TypeError) as exc:
+            raise ExpressionError(f"{self.where}: {_quote(self.text)} cannot be built in UFL: {exc}") from None
+
+
+def piecewise_linear(t, knots, values, use_ufl):
+    """Piecewise-linear interpolation through (knots, values), constant outside the knots.
+
+    The same formula as ``contact._piecewise``: numpy ``np.interp`` (a float for a scalar t, else
+    an array), UFL ``values[0] + sum_k slope_k min(max(t - a_k, 0), b_k - a_k)``."""
+    knots = [float(k) for k in knots]
+    values = [float(v) for v in values]
+    if len(knots) == 1:
+        if use_ufl:
+            return ufl.as_ufl(values[0])
+        return values[0] if np.ndim(t) == 0 else np.full(np.shape(t), values[0])
+    if not use_ufl:
+        r = np.interp(np.asarray(t, dtype=float), knots, values)
+        return float(r) if r.ndim == 0 else r
+    out = ufl.as_ufl(values[0])
+    for k in range(len(knots) - 1):
+        a, b = knots[k], knots[k + 1]
+        slope = (values[k + 1] - values[k]) / (b - a)
+        if slope != 0.0:
+            out = out + slope * ufl.min_value(ufl.max_value(t - a, 0.0), b - a)
+    return out
+
+
+def _numbers(seq, key, name):
+    if not isinstance(seq, (list, tuple)):
+        raise ExpressionError(f"{key}: expected a list of numbers, got {type(seq).__name__}")
+    for i, v in enumerate(seq):
+        if _finite(v) is None:
+            raise ExpressionError(f"{key}: {name}[{i}] = {v!r} is not a finite number")
+    return [float(v) for v in seq]
+
+
+class Table:
+    """Piecewise-linear table of one variable (``.knots``, ``.values``), constant outside."""
+
+    def __init__(self, knots, values, where="table", variable="t"):
+        self.where, self.variable = where, variable
+        self.knots = _numbers(knots, f"{where}.{variable}", variable)
+        self.values = _numbers(values, f"{where}.value", "value")
+        if len(self.knots) != len(self.values) or not self.knots:
+            raise ExpressionError(f"{where}: a table needs as many values as {variable} (at least one); "
+                                  f"got {len(self.knots)} {variable} and {len(self.values)} values")
+        k, what = self.knots, "times" if variable == "t" else f"{variable} knots"
+        for i in range(1, len(k)):
+            if not k[i] > k[i - 1]:
+                raise ExpressionError(f"{where}.{variable}: {what} must increase strictly "
+                                      f"({variable}[{i}] = {k[i]:g} <= {variable}[{i - 1}] = {k[i - 1]:g})")
+
+    def evaluate(self, t):
+        return piecewise_linear(t, self.knots, self.values, use_ufl=False)
+
+    def to_ufl(self, t):
+        return piecewise_linear(t, self.knots, self.values, use_ufl=True)
+
+
+class Value:
+    """A constant, a :class:`Table` or an :class:`Expression`, behind one interface."""
+
+    def __init__(self, where, constant=None, expression=None, table=None):
+        self.where, self.constant, self.expression, self.table = where, constant, expression, table
+        self.symbols = (expression.symbols if expression else
+                        frozenset([table.variable]) if table else frozenset())
+        self.depends_on_space = bool(self.symbols & set(SPACE))
+        self.depends_on_time = "t" in self.symbols
+
+    def describe(self):
+        if self.expression:
+            return f"expression {_quote(self.expression.text)}"
+        if self.table:
+            v, k = self.table.variable, self.table.knots
+            return f"table of {v} ({len(k)} points, {v} from {k[0]:g} to {k[-1]:g})"
+        return f"constant {self.constant:g}"
+
+    __repr__ = describe
+
+    def _table_arg(self, given):
+        v = given.get(self.table.variable)
+        if v is None:
+            raise ExpressionError(f"{self.where}: a table of {self.table.variable} needs a value of it")
+        return v
+
+    def evaluate(self, x=None, y=None, z=None, t=None, *, check_finite=True, **others):
+        """Values broadcast to the shape of the given x, y, z (a float when that is a scalar)."""
+        given = dict(x=x, y=y, z=z, t=t, **others)
+        if self.expression:
+            r = self.expression.evaluate(**given, check_finite=check_finite)
+        elif self.table:
+            r = self.table.evaluate(self._table_arg(given))
+        else:
+            r = self.constant
+        shape = np.broadcast_shapes(np.shape(r), *(np.shape(given[s]) for s in SPACE if given[s] is not None))
+        r = np.array(np.broadcast_to(r, shape), dtype=float)
+        return float(r) if r.ndim == 0 else r
+
+    def to_ufl(self, x=None, y=None, z=None, t=None, **others):
+        given = dict(x=x, y=y, z=z, t=t, **others)
+        if self.expression:
+            return self.expression.to_ufl(**given)
+        if self.table:
+            return self.table.to_ufl(self._table_arg(given))
+        return ufl.as_ufl(self.constant)
+
+
+def parse_value(raw, where, symbols=("x", "y", "z", "t"), table_variable="t") -> Value:
+    """A TOML value -> :class:`Value`: a finite number, an expression string, or an inline table
+    ``{ t = [...], value = [...] }`` (the first key is ``table_variable``)."""
+    if isinstance(raw, (int, float)) and not isinstance(raw, bool):
+        if _finite(raw) is None:
+            raise ExpressionError(f"{where}: {raw!r} is not a finite number")
+        return Value(where, constant=_finite(raw))
+    if isinstance(raw, str):
+        return Value(where, expression=parse_expression(raw, where, symbols))
+    if isinstance(raw, dict):
+        expected = {table_variable, "value"}
+        if set(raw) != expected:
+            wrong = sorted(map(str, set(raw) - expected)) or sorted(expected - set(raw))
+            raise ExpressionError(f"{where}: a table takes exactly the keys '{table_variable}' and 'value' "
+                                  f"({'unknown' if set(raw) - expected else 'missing'}: {', '.join(wrong)})")
+        return Value(where, table=Table(raw[table_variable], raw["value"], where, table_variable))
+    shown = repr(raw) if len(repr(raw)) <= 60 else repr(raw)[:57] + "..."
+    raise ExpressionError(f"{where}: expected a number, an expression string or a table "
+                          f"{{ {table_variable} = [...], value = [...] }}, got {type(raw).__name__} {shown}")

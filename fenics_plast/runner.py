@@ -1,0 +1,201 @@
+"""Runs a validated :class:`fenics_plast.problem.Problem`: mesh -> forms -> solver -> results.
+
+One runner for every problem; it knows no scene by name. What it does, in order:
+
+1. mesh the scene's Gmsh file (:func:`fenics_plast.meshing.mesh_from_file`) and check that every
+   group the scene names exists, with the right dimension (regions: surfaces, groups: curves);
+2. build the material(s), the kinematics and the solver of ``analysis.type``;
+3. apply the boundary conditions and loads, tools and contact pairs: only what the scene names is
+   assembled (no contact pairs: no contact forms; explicit: no Newton);
+4. run the steps (static) or the time integration (explicit), recording the declared outputs
+   (:mod:`fenics_plast.quantities`) into history.csv, fields into fields.xdmf, profiles at step ends;
+5. return the results for summary.json (final values, maxima, study keys, run statistics).
+
+Times: static t is the pseudo-time (the load factor of the solver); explicit t is in seconds
+inside the package and in µs in scene files, tables and expressions, history.csv (``time_us``).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import ufl
+from dolfinx import fem, io
+from mpi4py import MPI
+
+from fenics_plast.checkpoint import Checkpointer, scene_settings
+from fenics_plast.errors import RunError
+from fenics_plast.kinematics import Kinematics
+from fenics_plast.material import Hardening, Material
+from fenics_plast.meshing import MeshError, mesh_from_file
+from fenics_plast.problem import COMPONENTS, SceneError
+from fenics_plast.quadrature import von_mises
+from fenics_plast.quantities import Body, Quantities
+
+US = 1e-6
+
+
+# ----------------------------------------------------------------------------------------------
+# set-up shared by both analyses
+
+
+def material_of(spec) -> Material:
+    """:class:`Material` from a validated [materials.<name>] table."""
+    h = spec.hardening
+    hardening = None
+    if h is not None:
+        kw = {k: v for k, v in h.to_dict().items() if k != "law"}
+        hardening = Hardening(h.law, **kw)
+    return Material(spec.E, spec.nu, hardening, model=spec.model)
+
+
+def read_mesh(problem, comm):
+    """Mesh + tags + groups; checks every group and region the scene names (SceneError, exit 2)."""
+    m = problem.mesh
+    where = f"{problem.path}"
+    try:
+        mesh, ct, ft, groups = mesh_from_file(comm, problem.mesh_file, m.parameters, m.refine)
+    except MeshError as e:
+        raise SceneError(f"{where}: mesh.file: {e}") from None
+    facets = sorted(n for n, (d, _) in groups.items() if d == 1)
+    regions = sorted(n for n, (d, _) in groups.items() if d == 2)
+
+    def need(dotted, name, dim):
+        if name in groups and groups[name][0] == dim:
+            return
+        kind, have = ("facet group (Physical Curve)", facets) if dim == 1 else ("region (Physical Surface)", regions)
+        if name in groups:
+            raise SceneError(f"{where}: {dotted} = {name!r} is not a {kind} of the mesh: it is a "
+                             f"{'region' if dim == 1 else 'facet group'}")
+        raise SceneError(f"{where}: {dotted} = {name!r} is not a {kind} of the mesh: the mesh's "
+                         f"{'facet groups' if dim == 1 else 'regions'} are {', '.join(have) or 'none'}")
+    for n, b in problem.boundary.items():
+        need(f"boundary.{n}.group", b.group, 1)
+    for n, c in problem.contact.items():
+        need(f"contact.{n}.group", c.group, 1)
+    for n, o in problem.outputs.items():
+        for k in ("group", "opposite"):
+            if o.get(k) is not None:
+                need(f"outputs.{n}.{k}", o.get(k), 1)
+        for r in o.get("regions") or ():
+            need(f"outputs.{n}.regions", r, 2)
+    for n, mat in problem.materials.items():
+        for r in mat.regions or ():
+            need(f"materials.{n}.regions", r, 2)
+    for n, iv in problem.initial_velocity.items():
+        for r in iv.regions or ():
+            need(f"initial_velocity.{n}.regions", r, 2)
+    return mesh, ct, ft, groups
+
+
+def single_material(problem, cell_tags, groups):
+    """The material of the body. Several materials must cover disjoint regions; this version
+    solves one material per problem and refuses more (clear message)."""
+    mats = problem.materials
+    if len(mats) > 1:
+        raise SceneError(f"{problem.path}: materials: {len(mats)} materials given; several materials "
+                         f"per problem are not supported yet (one [materials.<name>] table)")
+    (name, spec), = mats.items()
+    return name, spec, material_of(spec)
+
+
+def cell_regions(cell_tags, groups, n_owned):
+    out = {}
+    for name, (dim, tag) in groups.items():
+        if dim == 2:
+            c = cell_tags.find(tag)
+            out[name] = c[c < n_owned]
+    return out
+
+
+def symmetry_component(V, facet_tags, tag, where):
+    """The component normal to a straight symmetry line (0: normal to x, 1: normal to y)."""
+    nodes = fem.locate_dofs_topological(V, V.mesh.topology.dim - 1, facet_tags.find(tag))
+    X = V.tabulate_dof_coordinates()[nodes, :2]
+    comm = V.mesh.comm
+    lo = comm.allreduce(X.min(axis=0) if len(X) else np.full(2, np.inf), op=MPI.MIN)
+    hi = comm.allreduce(X.max(axis=0) if len(X) else np.full(2, -np.inf), op=MPI.MAX)
+    span = hi - lo
+    scale = max(span.max(), 1e-300)
+    if span[0] <= 1e-9 * scale:
+        return 0
+    if span[1] <= 1e-9 * scale:
+        return 1
+    raise SceneError(f"{where}: type = 'symmetry' needs a straight group normal to x or y; this one "
+                     f"spans {span[0]:.4g} mm in x and {span[1]:.4g} mm in y")
+
+
+def components_of(b):
+    return [COMPONENTS[c] for c in b.components]
+
+
+def values_of(b, n):
+    v = b.value
+    return list(v) if isinstance(v, tuple) else [v] * n
+
+
+def tool_of(name, spec, time_scale=1.0):
+    """A :mod:`fenics_plast.tools` tool from a validated [tools.<name>] table. ``time_scale``: seconds
+    per unit of the path's t (explicit: the file's µs)."""
+    from fenics_plast import tools as T
+    path = None
+    if spec.path:
+        comps = spec.path
+
+        def path(t, use_ufl):
+            tt = t * (1.0 / time_scale) if time_scale != 1.0 else t
+            out = []
+            for c in ("x", "y"):
+                val = comps.get(c)
+                if val is None:
+                    out.append(ufl.as_ufl(0.0) if use_ufl else 0.0)
+                else:
+                    out.append(val.to_ufl(t=tt) if use_ufl else float(val.evaluate(t=tt)))
+            return tuple(out) if use_ufl else np.array(out)
+    if spec.shape == "plane":
+        return T.Plane(spec.point, spec.normal, path=path, name=name)
+    if spec.shape == "circle":
+        return T.Circle(spec.center, spec.radius, path=path, name=name)
+    return T.Profile(spec.segments, body_side=spec.body_side, path=path, name=name)
+
+
+def open_fields(problem, output, comm, mesh):
+    if not problem.output.xdmf:
+        return None
+    xf = io.XDMFFile(comm, str(output.xdmf_path), "w")
+    xf.write_mesh(mesh)
+    return xf
+
+
+def checkpointer(problem, output, comm):
+    every = int(problem.output.checkpoint_every)
+    resume = bool(getattr(output, "resume", False))
+    if not (every > 0 or resume):
+        return None
+    return Checkpointer(output.out_dir, comm, scene_settings(problem), problem.analysis.type, every=every,
+                        resume=resume, output=output)
+
+
+def draw_plots(problem, output):
+    """The scene's [plots] as PNGs (rank 0); a figure that fails is logged and does not fail the run."""
+    if not problem.output.plots or not output.is_root or not problem.plots:
+        return
+    from fenics_plast.plots import draw_declared
+    output.close_history()
+    try:
+        draw_declared(output.out_dir, problem.to_dict(), title=problem.name)
+    except Exception as e:  # noqa: BLE001 - plots are a by-product; the results stand
+        output.log(f"warning: plots of {output.out_dir} not drawn: {type(e).__name__}: {e}")
+
+
+def run(problem, output, mesh_data=None) -> dict:
+    """CLI entry point: runs the problem, returns the results for summary.json. ``mesh_data``: the
+    result of :func:`read_mesh` when the caller has read (and checked) the mesh already."""
+    comm = output.comm if output.comm is not None else MPI.COMM_WORLD
+    if problem.explicit:
+        from fenics_plast.runner_explicit import run_explicit
+        return run_explicit(problem, output, comm, mesh_data)
+    from fenics_plast.runner_static import run_static
+    return run_static(problem, output, comm, mesh_data)
+
+

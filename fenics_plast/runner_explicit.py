@@ -1,0 +1,157 @@
+"""Explicit analyses: central differences with a lumped mass (see :mod:`fenics_plast.runner`).
+
+Boundary conditions are velocity constraints: ``fixed``, ``axis`` and ``symmetry`` hold components
+at zero velocity (sliding supports); ``velocity`` and ``displacement`` prescribe a component as a
+function of time. ``traction`` and ``pressure`` are dead loads. Times in scene files are in µs.
+History rows are ``output.history_points`` equally spaced times (time_us + the declared outputs).
+"""
+from __future__ import annotations
+
+import numpy as np
+from dolfinx import fem
+
+from fenics_plast.kinematics import Kinematics
+from fenics_plast.problem import M_S, SceneError
+from fenics_plast.quantities import Body, Quantities
+from fenics_plast.runner import (cell_regions, checkpointer, components_of, draw_plots, open_fields, read_mesh,
+                                 single_material, symmetry_component, tool_of, values_of)
+from fenics_plast.solvers.explicit import ExplicitDynamics
+
+US = 1e-6
+
+
+def velocity_constraints(problem, V, ft, groups):
+    """Homogeneous velocity constraints [(component, facets)] and the prescribed motions
+    [(component, facets, kind, value)] of [boundary]."""
+    zero, moving, loads = [], [], []
+    for name, b in problem.boundary.items():
+        tag = groups[b.group][1]
+        facets = ft.find(tag)
+        where = f"{problem.path}: boundary.{name}"
+        if b.type == "fixed":
+            zero += [(c, facets) for c in components_of(b)]
+        elif b.type == "axis":
+            zero.append((0, facets))
+        elif b.type == "symmetry":
+            zero.append((symmetry_component(V, ft, tag, where), facets))
+        elif b.type in ("velocity", "displacement"):
+            comps = components_of(b)
+            for c, val in zip(comps, values_of(b, len(comps))):
+                if val.depends_on_space:
+                    raise SceneError(f"{where}.value: explicit prescribed motion must be uniform over the group "
+                                     f"(a function of t only)")
+                if b.type == "velocity" and val.constant == 0.0:
+                    zero.append((c, facets))
+                else:
+                    moving.append((c, facets, b.type, val, name))
+        else:
+            loads.append((name, b))
+    return zero, moving, loads
+
+
+def run_explicit(problem, output, comm, mesh_data=None) -> dict:
+    mesh, ct, ft, groups = mesh_data if mesh_data is not None else read_mesh(problem, comm)
+    ana = problem.analysis
+    _, mspec, material = single_material(problem, ct, groups)
+    kin = Kinematics(mesh, problem.mesh.geometry)
+    V = fem.VectorFunctionSpace(mesh, ("Lagrange", 1))
+    zero, moving, loads = velocity_constraints(problem, V, ft, groups)
+    solver = ExplicitDynamics(mesh, kin, material, mspec.density, zero, element=problem.mesh.element,
+                              log=output.log, internal_force=ana.internal_force)
+    for c, facets, kind, val, name in moving:
+        dofs = fem.locate_dofs_topological(solver.V, mesh.topology.dim - 1, facets)
+        f = (lambda v: (lambda t: float(v.evaluate(t=t / US))))(val)
+        if kind == "velocity":
+            solver.add_prescribed_velocity(c, dofs, lambda t, f=f: f(t) * M_S)     # m/s -> mm/s
+        else:
+            solver.add_prescribed_displacement(c, dofs, f)
+    for name, b in loads:
+        comps = [0, 1] if b.type == "pressure" else components_of(b)
+        vals = values_of(b, len(comps)) if b.type != "pressure" else [b.value]
+        if b.type == "pressure" or any(v.depends_on_space for v in vals):
+            raise SceneError(f"{problem.path}: boundary.{name}: explicit analyses take uniform tractions "
+                             f"(functions of t only); pressure loads are for static analyses")
+        fns = [None, None]
+        for c, v in zip(comps, vals):
+            fns[c] = (lambda v: (lambda t: float(v.evaluate(t=t / US))))(v)
+        solver.add_traction(ft, groups[b.group][1], tuple(fn or (lambda t: 0.0) for fn in fns))
+    tools = {n: tool_of(n, t, time_scale=US) for n, t in problem.tools.items()}
+    pairs = {}
+    if problem.contact:
+        from fenics_plast.tools import contact_length_scale, default_penalty
+        for name, spec in problem.contact.items():
+            tag = groups[spec.group][1]
+            eps = spec.penalty if spec.penalty is not None else default_penalty(
+                material.E, contact_length_scale(mesh, ft, tag))
+            pairs[name] = solver.add_contact(tools[spec.tool], ft, tag, penalty=eps, friction=spec.friction,
+                                             law=spec.law, tangential_penalty=spec.tangential_penalty)
+    velocity = np.zeros(2)
+    for name, iv in problem.initial_velocity.items():
+        if iv.regions is not None or any(v.depends_on_space for v in iv.value):
+            raise SceneError(f"{problem.path}: initial_velocity.{name}: this version sets a uniform initial "
+                             f"velocity of the whole body (no regions, no expressions of x, y)")
+        velocity += [float(v.evaluate()) * M_S for v in iv.value]      # m/s as written -> mm/s
+    solver.set_velocity(tuple(velocity))
+
+    def tool_force(tool):
+        return sum((np.asarray(p.force()) for n, p in pairs.items() if problem.contact[n].tool == tool), np.zeros(2))
+
+    body = Body(comm, solver.V, solver._X, solver.nodal_positions, solver.qmap,
+                cell_regions(ct, groups, solver.qmap.n_owned), tool_force=tool_force,
+                energies=solver.energies, tool_translation=lambda tool, t: tools[tool].translation(t, use_ufl=False))
+    quantities = Quantities(problem.outputs, body, ft, groups)
+    end_time = ana.end_time
+    rows = int(problem.output.history_points)
+    every = int(problem.output.every)
+    xf = open_fields(problem, output, comm, mesh)
+    state = dict(row=0, eqps=None)
+
+    ck = checkpointer(problem, output, comm)
+    loop = None
+    if ck is not None and ck.resuming:
+        saved = ck.load()
+        solver.load_state(saved["solver"])
+        r = saved["runner"]
+        quantities.history, quantities.times, state["row"] = r["history"], r["times"], r["row"]
+        loop = saved["loop"]
+        output.log(f"{problem.name}: resumed at step {solver.step_count}, t = {solver.t / US:.4g} us")
+
+    def on_checkpoint(s, loop_state):
+        ck.save(s.step_count, solver=s.state_dict(), loop=loop_state,
+                runner=dict(history=quantities.history, times=quantities.times, row=state["row"]))
+
+    def on_row(s, t):
+        output.history(time_us=t / US, **quantities.row(t / US))
+        if xf is not None and (state["row"] % every == 0 or t >= end_time * (1 - 1e-12)):
+            state["eqps"] = s.qmap.cell_mean(s.qmap.eqps, name="eqps", out=state["eqps"])
+            xf.write_function(s.u, t / US)
+            xf.write_function(state["eqps"], t / US)
+        state["row"] += 1
+
+    bar = output.progress(end_time / US, problem.name, what="t", unit="us")
+    ck_args = {} if ck is None else dict(checkpoint_every=ck.every, on_checkpoint=on_checkpoint, resume=loop)
+    try:
+        stats = solver.run(end_time, dt_safety=ana.dt_safety, steps=ana.time_steps, rows=rows, on_row=on_row,
+                           bar=bar, **ck_args)
+    finally:
+        if xf is not None:
+            xf.close()
+    res = quantities.summary("time_us")
+    res.update(quantities.study_keys())
+    e = solver.energies()
+    res.update(energy_balance_error=e["balance_error"], steps=stats["steps"], dt_s=stats["dt_max"],
+               dt_min_s=stats["dt_min"], dt_stable_initial_s=stats["dt_stable_initial"],
+               dt_stable_final_s=stats["dt_stable_final"], wave_speed_m_s=solver.c * 1e-3,
+               element=solver.element, model=material.model, internal_force=solver.internal_force_route,
+               step_loop_time_s=stats["wall_s"], time_per_step_s=stats["time_per_step_s"],
+               setup_time_s=solver.timings["setup_s"], cells=solver.cells_global, dofs=solver.dofs_global,
+               converged=True)
+    if any(p.type == "shape" for p in problem.plots.values()):
+        from fenics_plast.plots import cells_table
+        eq = solver.qmap.cell_mean(solver.qmap.eqps, name="eqps")
+        output.write_csv("final_shape", cells_table(solver.V, solver.nodal_positions(), eq, "eqps"))
+    draw_plots(problem, output)
+    return res
+
+
+__all__ = ["run_explicit", "velocity_constraints"]

@@ -1,0 +1,236 @@
+"""Static analyses: load steps over a pseudo-time t with the SNES solver (see :mod:`fenics_plast.runner`).
+
+Boundary values and tool paths are functions of t (the solver's load factor); each [steps.<name>]
+ends at a pseudo-time where a converged state is reached exactly (profiles and fields are written
+there); without [steps] the run goes from t = 0 to 1 in ``analysis.increments`` increments.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import ufl
+
+from fenics_plast.errors import RunError
+from fenics_plast.kinematics import Kinematics
+from fenics_plast.problem import SceneError
+from fenics_plast.quadrature import von_mises
+from fenics_plast.quantities import Body, Quantities
+from fenics_plast.runner import (cell_regions, checkpointer, components_of, draw_plots, open_fields,
+                                 read_mesh, single_material, symmetry_component, tool_of, values_of)
+from fenics_plast.solvers.static import StaticSolver
+
+
+def _prescribed(value):
+    """value(X (3, n), t) for StaticSolver.add_prescribed from a scene value (t = pseudo-time)."""
+    if value.constant is not None:
+        c = float(value.constant)
+        return lambda X, t: np.full(X.shape[1], c)
+    return lambda X, t: np.asarray(value.evaluate(x=X[0], y=X[1], z=X[2], t=t), dtype=float) * np.ones(X.shape[1])
+
+
+def apply_boundary(problem, s, ft, groups):
+    """Dirichlet conditions and dead loads of [boundary]; returns {group: set of constrained components}."""
+    constrained: dict[str, set] = {}
+    X = ufl.SpatialCoordinate(s.mesh)
+    w = s.kin.weight
+    for name, b in problem.boundary.items():
+        tag = groups[b.group][1]
+        where = f"{problem.path}: boundary.{name}"
+        if b.type in ("fixed", "axis", "symmetry"):
+            comps = (components_of(b) if b.type == "fixed" else
+                     [0] if b.type == "axis" else [symmetry_component(s.V.collapse()[0], ft, tag, where)])
+            for c in comps:
+                s.add_dirichlet(c, ft, tag, 0.0)
+        elif b.type == "displacement":
+            comps = components_of(b)
+            for c, val in zip(comps, values_of(b, len(comps))):
+                s.add_prescribed(c, ft, tag, _prescribed(val))
+        elif b.type in ("traction", "pressure"):
+            ds = ufl.Measure("ds", domain=s.mesh, subdomain_data=ft)(tag)
+            t_ufl = s.load
+            if b.type == "pressure":
+                p = b.value.to_ufl(x=X[0], y=X[1], t=t_ufl)
+                traction = -p * ufl.FacetNormal(s.mesh)
+            else:
+                comps = components_of(b)
+                vals = values_of(b, len(comps))
+                tv = [ufl.as_ufl(0.0), ufl.as_ufl(0.0)]
+                for c, val in zip(comps, vals):
+                    tv[c] = val.to_ufl(x=X[0], y=X[1], t=t_ufl)
+                traction = ufl.as_vector(tv)
+            s.add_residual(-ufl.dot(traction, s.v) * w * ds)
+            continue
+        else:
+            raise SceneError(f"{where}.type = {b.type!r} is not available in static analyses")
+        constrained.setdefault(b.group, set()).update(comps)
+    return constrained
+
+
+def reaction_dofs(problem, s, ft, groups, constrained):
+    """Owned dofs of each reaction output; a dof also constrained in the same component by another
+    group is left out (its reaction belongs to both and to neither, e.g. a corner on a symmetry line)."""
+    out = {}
+    for name, o in problem.outputs.items():
+        if o.quantity != "reaction":
+            continue
+        c = {"x": 0, "y": 1, "r": 0, "z": 1}[o.component]
+        if c not in constrained.get(o.group, set()):
+            raise SceneError(f"{problem.path}: outputs.{name}: group {o.group!r} has no boundary condition "
+                             f"on component {o.component}: there is no reaction to record")
+        dofs = s.constrained_dofs(c, ft, groups[o.group][1])
+        for other, comps in constrained.items():
+            if other != o.group and c in comps:
+                dofs = np.setdiff1d(dofs, s.constrained_dofs(c, ft, groups[other][1]))
+        out[(o.group, o.component)] = dofs.astype(np.int32)
+    return out
+
+
+def add_contact(problem, s, ft, groups, material, tools):
+    """The [contact] pairs as penalty terms of the residual (None when the scene has none)."""
+    if not problem.contact:
+        return None, {}
+    from fenics_plast.contact import PenaltyContact
+    from fenics_plast.tools import contact_length_scale, default_penalty
+    first = next(iter(problem.contact.values()))
+    c = PenaltyContact(s, default_penalty(material.E, 1.0), friction=0.0, law=first.law)
+    pairs = {}
+    for name, spec in problem.contact.items():
+        tag = groups[spec.group][1]
+        eps = spec.penalty if spec.penalty is not None else default_penalty(
+            material.E, contact_length_scale(s.mesh, ft, tag))
+        pairs[name] = c.add_pair(tools[spec.tool], ft, tag, penalty=eps, friction=spec.friction, law=spec.law,
+                                 tangential_penalty=spec.tangential_penalty)
+    c.attach()
+    return c, pairs
+
+
+def run_static(problem, output, comm, mesh_data=None) -> dict:
+    t_setup = time.perf_counter()
+    mesh, ct, ft, groups = mesh_data if mesh_data is not None else read_mesh(problem, comm)
+    ana = problem.analysis
+    _, mspec, material = single_material(problem, ct, groups)
+    kin = Kinematics(mesh, problem.mesh.geometry)
+    opts = dict(rtol=ana.rtol, atol=ana.atol, max_iterations=ana.max_iterations, linesearch=ana.linesearch)
+    steps = [(n, st.end, st.increments or ana.increments, st.max_increment or ana.max_increment)
+             for n, st in problem.steps.items()] or [("load", 1.0, ana.increments, ana.max_increment)]
+    t_end = steps[-1][1]
+    s = StaticSolver(kin, material, element=problem.mesh.element, log=output.log,
+                     progress=output.progress(t_end, problem.name, what="t"), **opts)
+    constrained = apply_boundary(problem, s, ft, groups)
+    tools = {n: tool_of(n, t) for n, t in problem.tools.items()}
+    contact, pairs = add_contact(problem, s, ft, groups, material, tools)
+    s.setup()
+    reactions = reaction_dofs(problem, s, ft, groups, constrained)
+
+    Vc, vmap = s.V.collapse()
+    vmap = np.asarray(vmap)
+    X = Vc.tabulate_dof_coordinates()[:, :2].copy()
+
+    def positions():
+        return X + s.w.x.array[vmap].reshape(-1, 2)
+
+    def tool_force(tool):
+        return sum((p.force() for n, p in pairs.items() if problem.contact[n].tool == tool), np.zeros(2))
+
+    def tool_translation(tool, t):
+        return tools[tool].translation(t, use_ufl=False)
+
+    body = Body(comm, Vc, X, positions, s.qmap, cell_regions(ct, groups, s.qmap.n_owned),
+                reaction=s.reaction, tool_force=tool_force, tool_translation=tool_translation)
+    quantities = Quantities(problem.outputs, body, ft, groups, reactions)
+    cells = mesh.topology.index_map(2).size_global
+    output.log(f"{problem.name}: {cells} cells, {s.dofs} dofs, element {problem.mesh.element}, "
+               f"physics {', '.join(problem.active_physics) or 'elastic'}, set-up {time.perf_counter() - t_setup:.1f} s")
+
+    xf = open_fields(problem, output, comm, mesh)
+    fields = [s.qmap.cell_mean(np.zeros(s.qmap.n), name=n) for n in ("eqps", "von_mises_stress")] if xf else []
+    state = dict(count=0)
+
+    def write_fields(t):
+        if xf is None:
+            return
+        q = s.qmap
+        q.cell_mean(q.eqps, out=fields[0])
+        q.cell_mean(von_mises(q.tau_values, s.qp_jacobian()), out=fields[1])
+        xf.write_function(s.displacement_function(), t)
+        for f in fields:
+            xf.write_function(f, t)
+
+    ck = checkpointer(problem, output, comm)
+    loop = None
+    if ck is not None and ck.resuming:
+        saved = ck.load()
+        s.load_state(saved["solver"])
+        if contact is not None:
+            contact.load_state(saved["contact"])
+        r = saved["runner"]
+        quantities.history, quantities.times, state["count"] = r["history"], r["times"], r["count"]
+        quantities.profiles = {k: [(t, np.asarray(a), np.asarray(b)) for t, a, b in v] for k, v in r["profiles"].items()}
+        loop = saved["loop"]
+        output.log(f"{problem.name}: resumed at increment {len(s.increments)}, t = {s.lam_converged:.6g}")
+    else:
+        output.history(increment=0, time=0.0, **quantities.row(0.0), newton_iterations=0)
+        write_fields(0.0)
+
+    def on_checkpoint(solver, loop_state):
+        ck.save(len(solver.increments), solver=solver.state_dict(),
+                contact=contact.state_dict() if contact is not None else {}, loop=loop_state,
+                runner=dict(history=quantities.history, times=quantities.times, count=state["count"],
+                            profiles={k: [(t, list(a), list(b)) for t, a, b in v]
+                                      for k, v in quantities.profiles.items()}))
+    ck_args = {} if ck is None else dict(checkpoint_every=ck.every, on_checkpoint=on_checkpoint, resume=loop)
+
+    def make_callback(step_end):
+        def on_increment(solver):
+            if contact is not None:
+                contact.commit()
+            rec = solver.increments[-1]
+            t = solver.lam_converged
+            output.history(increment=rec["increment"], time=t, **quantities.row(t),
+                           newton_iterations=rec["iterations"])
+            if abs(t - step_end) <= 1e-12 * max(1.0, step_end):
+                quantities.record_profiles(t)
+            state["count"] += 1
+            if state["count"] % problem.output.every == 0 or abs(t - t_end) <= 1e-12 * max(1.0, t_end):
+                write_fields(t)
+            return False
+        return on_increment
+
+    def results(converged):
+        res = quantities.summary("t")
+        res.update(quantities.study_keys())
+        res.update(cells=cells, dofs=s.dofs, converged=converged, increments=len(s.increments),
+                   newton_iterations=s.total_iterations, cutbacks=len(s.cutbacks), element=problem.mesh.element,
+                   final_time=s.lam_converged)
+        if contact is not None:
+            res["max_penetration_mm"] = contact.max_penetration()
+            for n, p in pairs.items():
+                res[f"penalty_{n}_N_mm3"] = float(p.penalty) if hasattr(p, "penalty") else None
+        return res
+
+    def finish():
+        for name in quantities.profiles:
+            if quantities.profiles[name]:
+                output.write_csv(name, quantities.profile_table(name))
+        draw_plots(problem, output)
+
+    try:
+        for name, end, increments, max_increment in steps:
+            if s.lam_converged >= end - 1e-12 * max(1.0, end):
+                continue
+            s.run(increments=increments, min_increment=ana.min_increment, max_increment=max_increment,
+                  lam_end=end, callback=make_callback(end), **ck_args)
+    except RunError as e:
+        quantities.record_profiles(s.lam_converged)
+        e.results.update(results(False))
+        finish()
+        raise RunError(f"{problem.name}: stopped at t = {s.lam_converged:.6g}. {e}", results=e.results) from None
+    finally:
+        if xf is not None:
+            xf.close()
+    finish()
+    return results(True)
+
+
+__all__ = ["run_static", "apply_boundary", "reaction_dofs", "add_contact"]

@@ -1,0 +1,299 @@
+r"""Penalty contact with Coulomb friction for the explicit solver: body nodes against rigid tools.
+
+Each :class:`ExplicitContactPair` is the set of nodes of one boundary facet group of the body
+against one rigid tool (any object with ``gap_np(x, t) -> (g (n,), N (n, 2))`` and
+``translation(t, use_ufl=False) -> (2,)``, e.g. the tools of :mod:`fenics_plast.contact`, whose
+load factor is the time t [s] here). Units mm, N, MPa, s.
+
+* Nodes: the owned nodes of the facet group (each rank handles its owned nodes; totals are
+  reduced over the ranks), with the tributary area A_i = int N_i w dA0 [mm^2] on the reference
+  facets, w = 2 pi R in axisymmetry (the exact nodal rule of :mod:`fenics_plast.contact`).
+* Normal force (on the body) A_i p N, p = eps <-g> [MPa], g the gap of the node's current position
+  and N the tool's normal pointing into the body.
+* Friction: Coulomb's law as elastoplastic slip with a nodal history. Trial traction
+  t_tr = T . t_n - eps_T T . (du - dd) (T = (N_y, -N_x), t_n the tangential traction vector of the
+  last step, du the node's displacement increment over the step and dd the tool's translation over
+  it), returned to |t| <= mu p. ``law="coulomb"``: p and N current; ``"quasi-coulomb"`` (seed eq.
+  24, as :mod:`fenics_plast.contact`): the bound mu p and the normal that defines T are those at
+  the start of the step (history), and t = 0 at nodes out of contact. Force on the body
+  A_i (p N + t T).
+* Stable step: a node of lumped mass m_i on a penalty spring of stiffness eps A_i alone has the
+  limit dt_c,i = 2 sqrt(m_i / (eps A_i)) (eps the larger of the normal and the tangential
+  penalty). The spring adds to the stiffness of the elements at the same node (omega^2 = (k_e +
+  k_c) / m), so the solver combines the element estimate dt_e = h_min / c and dt_c = min_i dt_c,i
+  as dt = 1 / sqrt(1 / dt_e^2 + 1 / dt_c^2) (<= both) and multiplies it by ``dt_safety``.
+  Measured (tests' bar, dt_safety 0.8): the plain minimum min(dt_e, dt_c) goes unstable when
+  dt_c ~ dt_e; the combined rule does not. eps ~ E / h gives dt_c ~ 1.4 h / c at a boundary node.
+* Energies (trapezoidal over each step): contact work E_c = -int f_c . (du - dd) (penalty energy
+  stored + frictional dissipation, >= 0 for a fixed tool) and the tool's work
+  W_tool = int F_c . dd (goes into the external work); impulse int F_c dt [N s].
+
+The forces are computed by :func:`fenics_plast.solvers.time_integration.contact_forces`, for
+:class:`~fenics_plast.tools.Plane` and :class:`~fenics_plast.tools.Circle` tools (FlatWall,
+SphericalPunch, ... of :mod:`fenics_plast.contact`: subclasses that keep their gap) with the gap
+in compiled code, so that serial fused runs keep taking several steps per compiled call; other
+tools (e.g. :class:`~fenics_plast.tools.Profile`) have their ``gap_np`` called every step, which
+makes the serial run go step by step.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from fenics_plast.contact import LAWS
+from fenics_plast.tools import Circle, Plane
+from fenics_plast.solvers import time_integration as ti
+
+_LAW_CODE = {"coulomb": ti.COULOMB, "quasi-coulomb": ti.QUASI_COULOMB}
+#: per-node history columns in checkpoints: t_hist (2), N_hist (2), p_hist, t_scal, slip, fc (2)
+_HIST_COLS = 9
+
+
+def _tool_kind(tool):
+    """(kind, params (4,)) of the compiled gap for a :class:`~fenics_plast.tools.Plane` or
+    :class:`~fenics_plast.tools.Circle` (or a subclass that keeps its gap), (GENERIC, zeros) for any
+    other tool."""
+    cls = type(tool)
+    if isinstance(tool, Plane) and cls.gap_np is Plane.gap_np:
+        return ti.PLANE, np.array([tool.point[0], tool.point[1], tool.normal[0], tool.normal[1]], dtype=float)
+    if isinstance(tool, Circle) and cls.gap_np is Circle.gap_np and cls.center is Circle.center:
+        return ti.CIRCLE, np.array([tool.center0[0], tool.center0[1], tool.radius, 0.0], dtype=float)
+    return ti.GENERIC, np.zeros(4)
+
+
+class ExplicitContactPair:
+    """Nodes of the facets tagged ``tag`` against ``tool`` (create with
+    :meth:`ExplicitDynamics.add_contact`). Collective construction.
+
+    penalty, tangential_penalty (default: penalty) [N/mm^3]; friction mu; law "coulomb" |
+    "quasi-coulomb". Reporting methods are collective and return global values on all ranks.
+    """
+
+    def __init__(self, contact_set, index, tool, facet_tags, tag, penalty, friction=0.0, law="coulomb",
+                 tangential_penalty=None, name=None):
+        if law not in LAWS:
+            raise ValueError(f"contact law must be one of {LAWS}, got {law!r}")
+        if not penalty > 0:
+            raise ValueError(f"contact penalty must be > 0, got {penalty!r}")
+        if friction < 0:
+            raise ValueError(f"friction coefficient must be >= 0, got {friction!r}")
+        s = contact_set.solver
+        self.set, self.index, self.tool, self.tag = contact_set, index, tool, tag
+        self.name = name or getattr(tool, "name", "tool")
+        self.penalty = float(penalty)
+        self.tangential_penalty = float(tangential_penalty if tangential_penalty else penalty)
+        self.friction = float(friction)
+        self.law = law
+        self.kind, self.params = _tool_kind(tool)
+        self.fixed = getattr(tool, "path", True) is None       # a tools.Tool without a path does not move
+        self.comm = s.comm
+        mesh, V, bs, n = s.mesh, s.V, s.bs, s.n_own
+        fdim = mesh.topology.dim - 1
+        facets = np.asarray(facet_tags.find(tag), dtype=np.int32)
+        xdofs = np.asarray(fem.locate_dofs_topological(V.sub(0), fdim, facets), dtype=np.int64)
+        xdofs = np.unique(xdofs[xdofs < n])
+        nodes = xdofs // bs
+        self.dofs = np.ascontiguousarray(np.stack([nodes * bs, nodes * bs + 1], axis=1))   # (nc, 2)
+        self.X = np.ascontiguousarray(s._X[nodes])                                          # (nc, 2) [mm]
+        # tributary areas int N_i w dA0 (degree 4: exact for N_i times the linear weight)
+        ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags, metadata={"quadrature_degree": 4})(tag)
+        ones = fem.Constant(mesh, PETSc.ScalarType((1.0,) * bs))
+        b = fem_petsc.assemble_vector(fem.form(ufl.inner(ones, ufl.TestFunction(V)) * s.kin.weight * ds))
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self.area = b.array[self.dofs[:, 0]].copy()                                          # (nc,) [mm^2]
+        b.destroy()
+        total = self.comm.allreduce(float(self.area.sum()), op=MPI.SUM)
+        if total <= 0.0:
+            raise ValueError(f"contact pair {self.name!r}: facet group {tag} has no facets (zero area)")
+        # stable step of the node on its penalty spring
+        k = max(self.penalty, self.tangential_penalty if self.friction > 0 else 0.0) * self.area
+        m = s.mass[self.dofs[:, 0]]
+        on = k > 0
+        loc = float(np.min(2.0 * np.sqrt(m[on] / k[on]))) if on.any() else math.inf
+        self.dt_stable = self.comm.allreduce(loc, op=MPI.MIN)
+        self.sl = slice(0, 0)
+
+    @property
+    def compiled(self):
+        """True if the gap is computed in compiled code (Plane, Circle)."""
+        return self.kind != ti.GENERIC
+
+    def translation(self, t):
+        """The tool's translation at time t [s] (2,) [mm]."""
+        if self.fixed:
+            return np.zeros(2)
+        return np.asarray(self.tool.translation(float(t), use_ufl=False), dtype=float).reshape(2)
+
+    # -- reporting (collective) --------------------------------------------------------------
+    def _sum(self, x):
+        return self.comm.allreduce(x, op=MPI.SUM)
+
+    def force(self):
+        """Total contact force exerted BY the tool ON the body (Fx, Fy) [N] at the current step
+        (2 pi r included in axisymmetry)."""
+        return self._sum(self.set.fc[self.sl].sum(axis=0))
+
+    def normal_force(self):
+        """sum_i A_i p_i [N]."""
+        c = self.set
+        return self._sum(float(np.dot(c.area[self.sl], c.p_hist[self.sl])))
+
+    def tangential_force(self):
+        """sum_i A_i t_i [N], t signed along T = (N_y, -N_x) (0 without friction)."""
+        c = self.set
+        return self._sum(float(np.dot(c.area[self.sl], c.t_scal[self.sl])))
+
+    def max_penetration(self):
+        """Largest penetration -g over the pair's nodes now [mm] (0 if none penetrates)."""
+        p = self.set.p_hist[self.sl]
+        return self.comm.allreduce(float(p.max()) / self.penalty if p.size else 0.0, op=MPI.MAX)
+
+    def max_penetration_run(self):
+        """Largest penetration over the run so far [mm]."""
+        return self.comm.allreduce(float(self.set.pen[self.index]), op=MPI.MAX)
+
+    def contact_work(self):
+        """Energy taken up by the contact [N mm]: penalty energy + frictional dissipation (minus
+        the work of a moving tool, which is :meth:`tool_work`)."""
+        return self._sum(float(self.set.acc[self.index, 0]))
+
+    def tool_work(self):
+        """Work of the tool's motion on the body [N mm] (0 for a fixed tool)."""
+        return self._sum(float(self.set.acc[self.index, 1]))
+
+    def impulse(self):
+        """Time integral of :meth:`force` since t = 0 (trapezoidal) [N s]."""
+        return self._sum(self.set.acc[self.index, 2:4].copy())
+
+    def stored_energy(self):
+        """Elastic energy in the penalty springs now [N mm]: sum A (p^2 / 2 eps + t^2 / 2 eps_T)."""
+        c = self.set
+        a, p, t = c.area[self.sl], c.p_hist[self.sl], c.t_scal[self.sl]
+        e = 0.5 * np.dot(a, p * p) / self.penalty
+        if self.friction > 0:
+            e += 0.5 * np.dot(a, t * t) / self.tangential_penalty
+        return self._sum(float(e))
+
+    def status(self):
+        """(nodes in contact, nodes slipping) at the last step (frictionless: every node in contact
+        slips)."""
+        c = self.set
+        on = c.p_hist[self.sl] > 0.0
+        slip = c.slip[self.sl] > 0.0
+        tot = self._sum(np.array([on.sum(), slip.sum()], dtype=np.int64))
+        return int(tot[0]), int(tot[1])
+
+
+class ContactSet:
+    """All contact pairs of one solver, their nodes concatenated in the arrays of
+    :func:`~fenics_plast.solvers.time_integration.contact_forces` (rank-local rows)."""
+
+    def __init__(self, solver):
+        self.solver = solver
+        self.pairs: list[ExplicitContactPair] = []
+        self._build()
+
+    def add(self, tool, facet_tags, tag, **kw):
+        pair = ExplicitContactPair(self, len(self.pairs), tool, facet_tags, tag, **kw)
+        self.pairs.append(pair)
+        self._build()
+        return pair
+
+    @property
+    def chunkable(self):
+        """All gaps compiled: the serial step loop may run several steps per call."""
+        return all(p.compiled for p in self.pairs)
+
+    @property
+    def dt_stable(self):
+        return min((p.dt_stable for p in self.pairs), default=math.inf)
+
+    def _build(self):
+        P = self.pairs
+        nc = [p.X.shape[0] for p in P]
+        start = np.concatenate([[0], np.cumsum(nc)]).astype(int)
+        for p, a, b in zip(P, start[:-1], start[1:]):
+            p.sl = slice(int(a), int(b))
+        cat = (lambda xs, shape, dt=float: np.ascontiguousarray(np.concatenate(xs)) if xs
+               else np.zeros(shape, dtype=dt))
+        self.X = cat([p.X for p in P], (0, 2))
+        self.dofs = cat([p.dofs for p in P], (0, 2), np.int64).astype(np.int64)
+        self.pair = cat([np.full(p.X.shape[0], i, dtype=np.int64) for i, p in enumerate(P)], (0,), np.int64)
+        self.area = cat([p.area for p in P], (0,))
+        self.kind = np.array([p.kind for p in P], dtype=np.int64)
+        self.params = np.array([p.params for p in P], dtype=float).reshape(-1, 4)
+        self.eps = np.array([p.penalty for p in P], dtype=float)
+        self.eps_t = np.array([p.tangential_penalty for p in P], dtype=float)
+        self.mu = np.array([p.friction for p in P], dtype=float)
+        self.law = np.array([_LAW_CODE[p.law] for p in P], dtype=np.int64)
+        n = self.X.shape[0]
+        self.gN = np.zeros((n, 3))
+        self.t_hist = np.zeros((n, 2))
+        self.N_hist = np.zeros((n, 2))
+        self.p_hist = np.zeros(n)
+        self.t_scal = np.zeros(n)
+        self.slip = np.zeros(n)
+        self.fc = np.zeros((n, 2))
+        self.acc = np.zeros((len(P), 4))
+        self.pen = np.zeros(len(P))
+
+    def args(self):
+        """The arguments of contact_forces from X to pen."""
+        return (self.X, self.dofs, self.pair, self.area, self.kind, self.params, self.eps, self.eps_t, self.mu,
+                self.law, self.gN, self.t_hist, self.N_hist, self.p_hist, self.t_scal, self.slip, self.fc, self.acc,
+                self.pen)
+
+    def translations(self, t):
+        """(npairs, 2) tool translations at time t [mm]."""
+        return self.translations_at(np.array([float(t)]))[0]
+
+    def translations_at(self, times):
+        """(ntimes, npairs, 2) tool translations at the times (ntimes,) [mm]."""
+        if not self.pairs:
+            return np.zeros((len(times), 0, 2))
+        return np.array([[p.translation(t) for p in self.pairs] for t in times], dtype=float)
+
+    def update(self, u, du, dt, trans_old, trans_new, fcon, t):
+        """Contact forces at the current positions X + u and time t into fcon (see contact_forces);
+        the gaps of generic tools come from their gap_np."""
+        for p in self.pairs:
+            if not p.compiled and p.X.shape[0]:
+                x = p.X + u[p.dofs]
+                g, N = p.tool.gap_np(x, t)
+                self.gN[p.sl, 0] = g
+                self.gN[p.sl, 1:] = np.asarray(N)[:, :2]
+        ti.contact_forces(u, du, dt, *self.args(), trans_old, trans_new, fcon)
+
+    # -- checkpoints -------------------------------------------------------------------------
+    def state_dict(self, dof_keys, comm):
+        """Per pair i: ``contact<i>`` the nodal history rows keyed by node, ``contact<i>_acc`` the
+        summed accumulators, ``contact<i>_pen`` the run's max penetration."""
+        from fenics_plast.checkpoint import Keyed
+        d = {}
+        hist = np.column_stack([self.t_hist, self.N_hist, self.p_hist, self.t_scal, self.slip, self.fc])
+        for i, p in enumerate(self.pairs):
+            d[f"contact{i}"] = Keyed(hist[p.sl], dof_keys[self.dofs[p.sl, 0]])
+            d[f"contact{i}_acc"] = comm.allreduce(self.acc[i].copy(), op=MPI.SUM).tolist()
+            d[f"contact{i}_pen"] = comm.allreduce(float(self.pen[i]), op=MPI.MAX)
+        return d
+
+    def required_keys(self):
+        return [f"contact{i}{s}" for i in range(len(self.pairs)) for s in ("", "_acc", "_pen")]
+
+    def take(self, d, dof_keys):
+        """The rows of this rank (raises CheckpointError, rank-local, for another mesh)."""
+        return [d[f"contact{i}"].take(dof_keys[self.dofs[p.sl, 0]]) for i, p in enumerate(self.pairs)]
+
+    def restore(self, d, rows, root):
+        for i, (p, r) in enumerate(zip(self.pairs, rows)):
+            r = np.asarray(r, dtype=float).reshape(-1, _HIST_COLS)
+            self.t_hist[p.sl], self.N_hist[p.sl] = r[:, 0:2], r[:, 2:4]
+            self.p_hist[p.sl], self.t_scal[p.sl], self.slip[p.sl], self.fc[p.sl] = r[:, 4], r[:, 5], r[:, 6], r[:, 7:9]
+            self.acc[i] = np.asarray(d[f"contact{i}_acc"], dtype=float) if root else 0.0
+            self.pen[i] = float(d[f"contact{i}_pen"])

@@ -1,0 +1,87 @@
+"""The study's command line: ``fenics-plast study`` and ``python -m fenics_plast.study``.
+
+* :func:`add_study_arguments`: the arguments (shared by both entry points);
+* :func:`study_from_args`: run a study from parsed arguments, returning the exit status: 0 when
+  at least one run succeeded, 1 when none did, 2 for bad arguments (nothing run);
+* :func:`study_command`: the equivalent ``fenics-plast study`` command line (shown in study.md);
+* :func:`main`: ``python -m fenics_plast.study``.
+"""
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+from pathlib import Path
+from typing import Sequence
+
+from .plan import StudyError, Vary, parse_vary
+
+
+def study_command(scene: str, varies: Sequence[Vary], sets: Sequence[str], out: str | None, np_ranks: int,
+                  results: str | None = None) -> str:
+    """The ``fenics-plast study`` command line of a study (quoted for a shell)."""
+    parts = ["fenics-plast", "study", scene]
+    for v in varies:
+        parts += ["--vary", f"{v.key}={','.join(v.values)}"]
+    for s in sets:
+        parts += ["--set", s]
+    if results:
+        parts += ["--results", results]
+    if np_ranks > 1:
+        parts += ["--np", str(np_ranks)]
+    if out:
+        parts += ["--out", out]
+    return " ".join(shlex.quote(p) for p in parts)
+
+
+def add_study_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """The ``study`` arguments (shared by ``fenics-plast study`` and ``python -m fenics_plast.study``)."""
+    p.add_argument("scene", help="scene file (TOML)")
+    p.add_argument("--vary", action="append", required=True, metavar="KEY=V1,V2,...",
+                   help="a scene key and its values (repeatable: the study runs every combination), "
+                        "e.g. --vary mesh.refine=1,2,4 --vary material.model=seed,isochoric")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="an override applied to every run (repeatable)")
+    p.add_argument("--out", help="output directory (default results/study_<scene name>)")
+    p.add_argument("--results", help="comma-separated summary.json keys to compare (default: the key "
+                                     "results the runs declare, summary.json key_results)")
+    p.add_argument("--np", type=int, default=1, help="MPI ranks per run (mpirun -n NP); default 1")
+    p.add_argument("--timeout", type=float, help="wall-clock limit per run [s]; a run past it is a failed row")
+    p.add_argument("--reuse", action="store_true",
+                   help="reuse runs already in OUT/runs with the same overrides (resume a study)")
+    p.add_argument("--keep-outputs", action="store_true",
+                   help="keep each run's fields.xdmf and plots (off by default: output.xdmf=false, "
+                        "output.plots=false)")
+    return p
+
+
+def study_from_args(args) -> int:
+    """Run a study from parsed arguments; returns the exit status (0, 1 or 2)."""
+    from .driver import run_study      # (driver imports study_command from here)
+    try:
+        varies = [parse_vary(t) for t in args.vary]
+        if args.out:
+            out = args.out
+        else:
+            from ..scene import SceneError, load_scene
+            try:
+                name = load_scene(args.scene, args.set).name
+            except SceneError as e:
+                raise StudyError(str(e)) from None
+            out = str(Path("results") / f"study_{name}")
+        results = [s.strip() for s in args.results.split(",") if s.strip()] if args.results else None
+        cmd = study_command(args.scene, varies, args.set, out, args.np, args.results)
+        study = run_study(args.scene, varies, out, args.set, results=results, np_ranks=args.np,
+                          timeout=args.timeout, reuse=args.reuse, keep_outputs=args.keep_outputs, command=cmd)
+    except StudyError as e:
+        print(f"error: {e}", file=sys.stderr, flush=True)
+        return 2
+    return 0 if any(r.ok for r in study.runs) else 1
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m fenics_plast.study ...``: returns the exit status."""
+    p = argparse.ArgumentParser(prog="python -m fenics_plast.study",
+                                description="Run combinations of scene-key overrides and tabulate cost and error.")
+    add_study_arguments(p)
+    return study_from_args(p.parse_args(argv))

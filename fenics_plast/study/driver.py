@@ -1,0 +1,99 @@
+"""One study from start to end: :func:`run_study` checks the arguments, plans the runs, executes
+them one process each, takes the key results, info columns and published references the runs
+declare in their summary.json, computes the references and errors, and writes study.csv,
+study.md and study.png.
+
+Published references (summary.json ``references``) are compared with only when every key the
+study varies or fixes with ``--set`` is a discretisation key (:data:`~fenics_plast.study.plan.ORDERED_KEYS`):
+a study of another velocity, material or end time is not the published problem.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable, Iterable, Sequence
+
+from .cli import study_command
+from .execute import Run, execute, prevalidate
+from .plan import StudyError, Vary, combinations, non_discretisation_keys, run_label, run_name
+from .references import references
+from .report import write_csv, write_markdown, write_plot
+from .table import Study, declared_outputs
+
+
+def _check(varies: Sequence[Vary], np_ranks: int) -> None:
+    if not varies:
+        raise StudyError("give at least one --vary KEY=V1,V2,...")
+    keys_seen = [v.key for v in varies]
+    if len(set(keys_seen)) != len(keys_seen):
+        raise StudyError(f"a key is varied twice: {keys_seen}")
+    if np_ranks < 1:
+        raise StudyError("--np must be >= 1")
+
+
+def _take_declared(study: Study, results: Sequence[str] | None, log: Callable[[str], None]) -> None:
+    """Key results, info columns and published references from the runs' summary.json."""
+    declared = declared_outputs(study.runs)
+    study.keys = list(results) if results else declared.key_results
+    study.info = [k for k in declared.info_results if k not in study.keys]
+    if not study.keys:
+        log("study: warning: no key results (no summary.json declares key_results): pass --results k1,k2")
+    published = {k: v for k, v in declared.references.items() if k in study.keys}
+    if not published:
+        return
+    foreign = non_discretisation_keys(study.varies, study.sets)
+    if foreign:
+        study.paper_note = ("Published references (" + ", ".join(f"`{k}`" for k in published) + ") not "
+                            "compared with: the study varies or sets " + ", ".join(f"`{k}`" for k in foreign)
+                            + ", not only discretisation keys.")
+        return
+    study.paper = {k: v["value"] for k, v in published.items()}
+    study.paper_sources = {k: v["source"] for k, v in published.items()}
+
+
+def run_study(scene: str | Path, varies: Sequence[Vary], out: str | Path, sets: Iterable[str] = (),
+              results: Sequence[str] | None = None, np_ranks: int = 1, timeout: float | None = None,
+              reuse: bool = False, keep_outputs: bool = False, command: str | None = None,
+              log: Callable[[str], None] = print) -> Study:
+    """Run the study and write study.csv, study.md and study.png into ``out``. Raises StudyError
+    (bad arguments: nothing run) when the scene or the fixed overrides are invalid.
+
+    ``results``: the summary keys to compare (default: the runs' declared ``key_results``)."""
+    from ..scene import SceneError, load_scene
+
+    scene = Path(scene).resolve()
+    sets = list(sets)
+    _check(varies, np_ranks)
+    try:
+        base = load_scene(scene, sets)
+    except SceneError as e:
+        raise StudyError(str(e)) from None
+    fixed = list(sets) if keep_outputs else ["output.xdmf=false", "output.plots=false", *sets]
+    out = Path(out)
+    (out / "runs").mkdir(parents=True, exist_ok=True)
+    study = Study(scene=scene, kind=getattr(base, "kind", "") or "", scene_name=base.name, varies=list(varies),
+                  sets=sets, keys=[], info=[], out=out, np_ranks=np_ranks,
+                  command=command or study_command(str(scene), varies, sets, str(out), np_ranks))
+    combos = combinations(varies)
+    for i, combo in enumerate(combos):
+        run = Run(name=run_name(i, combo, varies), label=run_label(combo, varies), settings=combo)
+        run_sets = fixed + [f"{k}={v}" for k, v in combo.items()]
+        why = prevalidate(scene, run_sets)
+        if why is not None:
+            run.status, run.reason = "invalid", why
+        else:
+            log(f"study: run {i + 1}/{len(combos)} {run.label} ...")
+            execute(run, scene, run_sets, out / "runs" / run.name, np_ranks=np_ranks, timeout=timeout,
+                    reuse=reuse)
+        t = run.value("wall_time_s")
+        log(f"study: run {i + 1}/{len(combos)} {run.label}: {run.status}"
+            + (" (reused)" if run.reused else "")
+            + (f", {t:.2f} s" if t is not None else "") + (f": {run.reason}" if run.reason else ""))
+        study.runs.append(run)
+    _take_declared(study, results, log)
+    study.refs = references(study.runs, varies, study.keys)
+    write_csv(study, out / "study.csv")
+    write_plot(study, out / "study.png")
+    write_markdown(study, out / "study.md", "study.png")
+    log(f"study: {sum(r.ok for r in study.runs)}/{len(study.runs)} runs succeeded; "
+        f"{out / 'study.csv'}, {out / 'study.md'}, {out / 'study.png'}")
+    return study

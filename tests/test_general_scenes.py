@@ -1,0 +1,104 @@
+"""The general scene format reproduces the shipped scenes' numbers.
+
+The references below were measured with the per-kind runners (fenics_plast/scenes/, commit 47b0e60,
+the last one before the general format) on demos/punch_stretching.toml and demos/taylor_bar.toml;
+the scene files of the general format in demos/general/ describe the same problems and must give
+the same numbers to 1e-8 relative (the issue's criterion), serially and on 2 MPI ranks.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+GENERAL = ROOT / "demos" / "general"
+FP = [sys.executable, "-m", "fenics_plast.cli"]
+
+#: per-kind runner, demos/punch_stretching.toml (mu = 0): summary values
+PUNCH_MU0 = {
+    "max_punch_force_kN": 63.2300688498061,
+    "max_eqps": 0.7012373883670993,
+    "min_thickness_strain": -0.6998388507525524,
+    "thickness_strain_at_start": -0.6815858002371998,          # the pole (old: pole_thickness_strain)
+    "min_thickness_strain_at_t_0.5": -0.17294109689345655,     # at 20 mm of travel
+}
+PUNCH_MU0_COUNTS = {"increments": 39, "newton_iterations": 248}
+#: the same with friction on punch and die (old: --set contact.friction=mu)
+PUNCH_FRICTION = {
+    0.15: ({"max_punch_force_kN": 69.47412180516294, "max_eqps": 0.5341296704983002,
+            "min_thickness_strain": -0.5277898846286091, "thickness_strain_at_start": -0.38931190064251336,
+            "min_thickness_strain_at_t_0.5": -0.14932390150004704}, {"increments": 34, "newton_iterations": 218}),
+    0.3: ({"max_punch_force_kN": 68.07597969193729, "max_eqps": 0.9871380107687495,
+           "min_thickness_strain": -0.9920610563243819, "thickness_strain_at_start": -0.20175179730898213,
+           "min_thickness_strain_at_t_0.5": -0.13962986088257645}, {"increments": 45, "newton_iterations": 273}),
+}
+
+
+def run_scene(scene, out, *sets, np_ranks=1):
+    cmd = FP + ["run", str(scene), "--out", str(out)]
+    for s in sets:
+        cmd += ["--set", s]
+    if np_ranks > 1:
+        cmd = ["mpirun", "-n", str(np_ranks), "--oversubscribe"] + cmd
+    env = dict(os.environ, FENICS_PLAST_PROGRESS="off", OMPI_ALLOW_RUN_AS_ROOT="1",
+               OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    p = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT, timeout=900)
+    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
+    return json.loads((Path(out) / "summary.json").read_text())
+
+
+def assert_close(summary, ref, rtol=1e-8):
+    for k, v in ref.items():
+        assert summary[k] == pytest.approx(v, rel=rtol, abs=0.0), k
+
+
+@pytest.mark.parametrize("np_ranks", [1, pytest.param(2, marks=pytest.mark.mpi)])
+def test_punch_reproduces_the_kind_runner(tmp_path, np_ranks):
+    s = run_scene(GENERAL / "punch_stretching.toml", tmp_path / "punch", np_ranks=np_ranks)
+    assert_close(s, PUNCH_MU0)
+    for k, v in PUNCH_MU0_COUNTS.items():
+        assert s[k] == v, k
+    assert s["key_results"] == ["punch_force_kN", "min_thickness_strain", "thickness_strain_at_start"]
+    assert (tmp_path / "punch" / "thickness_strain.csv").exists()
+    assert (tmp_path / "punch" / "punch_force.png").exists()
+
+
+@pytest.mark.parametrize("mu", [0.15, pytest.param(0.3, marks=pytest.mark.slow)])
+def test_punch_with_friction_reproduces_the_kind_runner(tmp_path, mu):
+    s = run_scene(GENERAL / "punch_stretching.toml", tmp_path / "punch", f"contact.punch.friction={mu}",
+                  f"contact.die.friction={mu}")
+    ref, counts = PUNCH_FRICTION[mu]
+    assert_close(s, ref)
+    for k, v in counts.items():
+        assert s[k] == v, k
+
+
+#: per-kind runner, demos/taylor_bar.toml (isochoric, 6 x 36 cells, 227 m/s, 80 us)
+TAYLOR = {"length_mm": 21.453719829605348, "radius_mm": 7.083304489612052, "max_eqps": 3.1152864985804913,
+          "plastic_dissipation_J": 236.01018388079393, "kinetic_energy_J": 0.13334036490360324}
+
+
+@pytest.mark.parametrize("np_ranks", [1, pytest.param(2, marks=pytest.mark.mpi)])
+def test_taylor_bar_reproduces_the_kind_runner(tmp_path, np_ranks):
+    s = run_scene(GENERAL / "taylor_bar.toml", tmp_path / "taylor", np_ranks=np_ranks)
+    assert_close(s, TAYLOR)
+    assert s["steps"] == 9360
+    assert s["energy_balance_error"] < 1e-3
+    assert s["references"]["radius_mm"] == {"value": 7.11, "source": "seed paper, Table 3"}
+    for png in ("shape.png", "size.png", "energy.png"):
+        assert (tmp_path / "taylor" / png).exists(), png
+
+
+def test_bad_group_name_is_refused_before_anything_is_written(tmp_path):
+    out = tmp_path / "bad"
+    p = subprocess.run(FP + ["run", str(GENERAL / "punch_stretching.toml"), "--out", str(out),
+                             "--set", "contact.die.group=nope"], capture_output=True, text=True, cwd=ROOT,
+                       env=dict(os.environ, FENICS_PLAST_PROGRESS="off"))
+    assert p.returncode == 2
+    assert "contact.die.group = 'nope'" in p.stderr and "axis, lower, rim, upper" in p.stderr
+    assert not out.exists()
