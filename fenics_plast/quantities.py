@@ -152,8 +152,6 @@ class Quantities:
     def thickness(self, name) -> tuple[np.ndarray, np.ndarray]:
         """(reference coordinate along the group, ln(t / t0)) at the group's nodes, all ranks.
         The facing node is matched by the reference coordinate along the group (interpolated)."""
-        o = self.outputs[name]
-        b = self.body
         a, c = self._gather(self._nodes[name]), self._gather(self._nodes[name + "/opposite"])
         # along: the coordinate in which the group extends most
         ax = int(np.argmax(np.ptp(a[:, :2], axis=0))) if len(a) > 1 else 0
@@ -167,7 +165,6 @@ class Quantities:
             x2 = np.column_stack([np.interp(s, c[:, ax], c[:, k]) for k in (2, 3)])
         t0 = np.linalg.norm(X2 - a[:, :2], axis=1)
         t = np.linalg.norm(x2 - a[:, 2:4], axis=1)
-        del o, b
         return s, np.log(t / t0)
 
     def _gather(self, nodes):
