@@ -26,7 +26,6 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from fenics_plast.contact import FlatWall  # noqa: E402
-from fenics_plast.errors import RunError  # noqa: E402
 from fenics_plast.kinematics import Kinematics  # noqa: E402
 from fenics_plast.material import Hardening, Material  # noqa: E402
 from fenics_plast.meshing import bar_mesh  # noqa: E402
@@ -220,7 +219,7 @@ def test_routes_and_gaps_agree(variant):
     """A plastic bar with friction against a moving wall (or a circle): the compiled gap in chunks
     == the Python gap step by step (same kernels: round-off only); fused == UFL route."""
     def run(route, python_gap):
-        s, ft, tags = bar("axisymmetric", route=route, nu=0.3, nz=10, plastic=True)
+        s, ft, tags = bar("axisymmetric", route=route, nu=0.3, nz=10, plastic=True, comm=MPI.COMM_SELF)
         s.set_velocity((0.0, -20e3))
         if variant == "circle":
             tool = Circle((0.0, -30.0), 30.0, path=lambda t, use_ufl: (0.0, 1e3 * t))
@@ -248,11 +247,11 @@ def test_checkpoint_resume_with_contact_and_drivers():
     from fenics_plast.checkpoint import Keyed, KeyedTable
 
     def make():
-        s, ft, tags = bar("axisymmetric", nu=0.3, nz=10, plastic=True)
+        s, ft, tags = bar("axisymmetric", nu=0.3, nz=10, plastic=True, comm=MPI.COMM_SELF)
         s.set_velocity((0.0, -10e3))
         s.add_contact(FlatWall(path=[(0.0, 0.0, 0.0), (1e-5, 0.01, 0.0)]), ft, tags["bottom"], penalty=2e5,
                       friction=0.2, law="coulomb")
-        k = s.add_prescribed_velocity(1, s.boundary_dofs(1, ft.find(tags["top"])), lambda t: -10e3 + 1e9 * t)
+        k = s.add_prescribed_velocity(1, s.boundary_dofs(ft.find(tags["top"])), lambda t: -10e3 + 1e9 * t)
         s.add_traction(ft, tags["outer"], (lambda t: -2.0 * t / 1e-6, 0.0))
         return s, k
 
@@ -319,7 +318,7 @@ def mpi_case(comm=MPI.COMM_WORLD):
     s.set_velocity((0.0, -20e3))
     pair = s.add_contact(FlatWall(path=[(0.0, 0.0, 0.0), (1e-5, 0.02, 0.0)]), ft, tags["bottom"], penalty=2e5,
                          friction=0.2, law="coulomb")
-    k = s.add_prescribed_velocity(1, s.boundary_dofs(1, ft.find(tags["top"])), -20e3)
+    k = s.add_prescribed_velocity(1, s.boundary_dofs(ft.find(tags["top"])), -20e3)
     s.add_traction(ft, tags["outer"], (-5.0, 0.0))
     s.run(5e-6, rows=3, progress=0)
     e = s.energies()

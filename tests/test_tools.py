@@ -241,6 +241,7 @@ def _run(s, c, pairs, increments=10):
         return False
 
     s.run(increments=increments, max_increment=1.0 / increments, callback=cb)
+    s.close()       # collective SNES destroy now, on every rank (not whenever the GC frees it)
     assert abs(s.lam_converged - 1.0) < 1e-12
     return rec
 

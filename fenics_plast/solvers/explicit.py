@@ -43,7 +43,6 @@ from __future__ import annotations
 import math
 import time
 
-import numba
 import numpy as np
 import ufl
 from dolfinx import fem
@@ -58,38 +57,10 @@ from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 from fenics_plast.solvers import fused_force
 from fenics_plast.solvers import time_integration as ti
 from fenics_plast.solvers.explicit_contact import ContactSet
+from fenics_plast.solvers.time_integration import _quad_min_size, quad_min_size  # noqa: F401 (re-exported)
 
 # basix vertex order of a quadrilateral is tensor-product (0,0) (1,0) (0,1) (1,1); cyclic order:
 _QUAD_CYCLE = np.array([0, 1, 3, 2])
-
-
-@numba.njit(cache=True)
-def _quad_min_size(x, cell_dofs, out):
-    for c in range(cell_dofs.shape[0]):
-        h = np.inf
-        for k in range(4):
-            a = cell_dofs[c, k]
-            b = cell_dofs[c, (k + 1) % 4]
-            ex = x[b, 0] - x[a, 0]
-            ey = x[b, 1] - x[a, 1]
-            le = np.sqrt(ex * ex + ey * ey)
-            h = min(h, le)
-            for m in (2, 3):                   # distance of the opposite vertices from edge k's line
-                d = cell_dofs[c, (k + m) % 4]
-                dx = x[d, 0] - x[a, 0]
-                dy = x[d, 1] - x[a, 1]
-                h = min(h, abs(ex * dy - ey * dx) / max(le, 1e-300))
-        out[c] = h
-    return out
-
-
-def quad_min_size(P):
-    """Smallest edge length or altitude (distance of a vertex from an opposite edge's line) of
-    each quad; P (n, 4, 2) vertices in cyclic order."""
-    P = np.ascontiguousarray(P, dtype=float)
-    n = P.shape[0]
-    cd = np.arange(4 * n, dtype=np.int64).reshape(n, 4)
-    return _quad_min_size(P.reshape(-1, 2), cd, np.empty(n))
 
 
 class ExplicitDynamics:
@@ -107,8 +78,9 @@ class ExplicitDynamics:
 
     Drivers are added after construction and before the first step (collective calls):
     :meth:`add_prescribed_velocity`, :meth:`add_prescribed_displacement`, :meth:`add_external_force`,
-    :meth:`add_traction`, :meth:`add_contact`. Arrays of dofs are unrolled indices into
-    ``u.x.array`` (2 per node: 2 node + component), see :meth:`boundary_dofs`.
+    :meth:`add_traction`, :meth:`add_contact`. Prescribed sets are a component of a set of nodes
+    (block indices of ``V``, :meth:`boundary_dofs`); nodal vectors (loads, masses, ``u.x.array``)
+    are unrolled, entry ``2 node + component``.
     """
 
     INTERNAL_FORCE_ROUTES = ("fused", "ufl")
@@ -278,12 +250,13 @@ class ExplicitDynamics:
         if self.KE0 is not None:
             raise RuntimeError(f"{what} must be added before the first step (initialize)")
 
-    def boundary_dofs(self, component, facets):
-        """Unrolled dofs (owned + ghost) of ``component`` on the nodes of ``facets`` (local facet
-        indices, e.g. ``facet_tags.find(tag)``)."""
+    def boundary_dofs(self, facets):
+        """The nodes (block indices of ``V``, owned + ghost) of ``facets`` (local facet indices, e.g.
+        ``facet_tags.find(tag)``): ``fem.locate_dofs_topological(V, fdim, facets)``. Component c of
+        node i is entry ``bs i + c`` of ``u.x.array``."""
         fdim = self.mesh.topology.dim - 1
-        d = fem.locate_dofs_topological(self.V.sub(component), fdim, np.asarray(facets, dtype=np.int32))
-        return np.asarray(d, dtype=np.int64)
+        return np.asarray(fem.locate_dofs_topological(self.V, fdim, np.asarray(facets, dtype=np.int32)),
+                          dtype=np.int64)
 
     def _add_prescribed(self, component, dofs, fun, kind, name):
         self._before_start("prescribed motion")
@@ -292,8 +265,9 @@ class ExplicitDynamics:
         return k
 
     def add_prescribed_velocity(self, component, dofs, velocity, name=None) -> int:
-        """Prescribe velocity component ``component`` (0: x/r, 1: y/z) on ``dofs`` (unrolled, of that
-        component; ghosts ignored) as ``velocity(t)`` [mm/s] (a callable of t [s] or a number).
+        """Prescribe velocity component ``component`` (0: x/r, 1: y/z) of the nodes ``dofs`` (block
+        indices of ``V``, see :meth:`boundary_dofs`; ghosts ignored) as ``velocity(t)`` [mm/s] (a
+        callable of t [s] or a number).
         The half-step velocity is velocity(t_n + dt/2), the step-end velocity velocity(t_{n+1}).
         Returns the set id for :meth:`reaction` and :meth:`prescribed_work`."""
         return self._add_prescribed(component, dofs, velocity, ti.VELOCITY, name)
@@ -470,8 +444,9 @@ class ExplicitDynamics:
         checkpoint is of another mesh or layout. The summed work accumulators go to rank 0."""
         from fenics_plast import checkpoint as ck
         keys = ["u", "u_n", "v", "a", "du", "f", "binv", "eqps", "t", "step_count", "W_int", "W_ext", "KE0"]
-        ck.require(d, keys + (["theta", "theta_n"] if self.theta is not None else []) + (self.drivers.required_keys() if self.has_drivers else []),
-                   "explicit solver")
+        keys += ["theta", "theta_n"] if self.theta is not None else []
+        keys += self.drivers.required_keys() if self.has_drivers else []
+        ck.require(d, keys, "explicit solver")
         kv, kq = self._checkpoint_keys()
         n = self.n_own
         why = None

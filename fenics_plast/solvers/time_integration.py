@@ -1,9 +1,10 @@
 r"""Time integration of the explicit solver: central differences in velocity-Verlet form.
 
-Compiled kernels of :class:`fenics_plast.solvers.explicit.ExplicitDynamics` and the (numpy only)
-data of what drives a run besides the internal force: prescribed motion and external loads. The
-internal force itself is :func:`fenics_plast.solvers.fused_force.internal_force` (or the UFL route
-in explicit.py); the contact forces are :func:`contact_forces` with the data of
+Compiled kernels of :class:`fenics_plast.solvers.explicit.ExplicitDynamics` and :class:`Drivers`,
+what drives a run besides the internal force (prescribed motion, external loads) and the steps
+that integrate them together with contact. The internal force itself is
+:func:`fenics_plast.solvers.fused_force.internal_force` (or the UFL route in explicit.py); the
+contact forces are :func:`contact_forces` with the data of
 :mod:`fenics_plast.solvers.explicit_contact`.
 
 One step t_n -> t_{n+1} = t_n + dt (units mm, N, s, tonne/mm^3; arrays are the owned, unrolled
@@ -35,6 +36,10 @@ Energies (trapezoidal rule over the step, du = u_{n+1} - u_n):
 Balance: KE + W_int + E_c = KE0 + W_ext with W_ext = W_load + sum W_set + W_tool (+ the supports'
 work, zero for homogeneous velocity constraints).
 
+The stable step's element size (:func:`quad_min_size`: smallest edge or altitude of the deformed
+quads) is here too; ExplicitDynamics.stable_dt divides it by the wave speed and combines it with the
+contact penalty's limit (explicit_contact.py).
+
 The plain kernels (:func:`kick_drift`, :func:`kick`, :func:`advance`) serve runs with only
 homogeneous velocity constraints (the Taylor bar: same arithmetic as before the general drivers
 existed); the general ones (:func:`drift_general`, :func:`kick_general`, :func:`advance_general`)
@@ -54,6 +59,39 @@ from fenics_plast.solvers.fused_force import internal_force
 _njit = numba.njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
 
 VELOCITY, DISPLACEMENT = 0, 1
+
+
+# ----------------------------------------------------------------------------------------------
+# stable step: the smallest element size of the deformed mesh (ExplicitDynamics.stable_dt)
+
+
+@numba.njit(cache=True)
+def _quad_min_size(x, cell_dofs, out):
+    for c in range(cell_dofs.shape[0]):
+        h = np.inf
+        for k in range(4):
+            a = cell_dofs[c, k]
+            b = cell_dofs[c, (k + 1) % 4]
+            ex = x[b, 0] - x[a, 0]
+            ey = x[b, 1] - x[a, 1]
+            le = np.sqrt(ex * ex + ey * ey)
+            h = min(h, le)
+            for m in (2, 3):                   # distance of the opposite vertices from edge k's line
+                d = cell_dofs[c, (k + m) % 4]
+                dx = x[d, 0] - x[a, 0]
+                dy = x[d, 1] - x[a, 1]
+                h = min(h, abs(ex * dy - ey * dx) / max(le, 1e-300))
+        out[c] = h
+    return out
+
+
+def quad_min_size(P):
+    """Smallest edge length or altitude (distance of a vertex from an opposite edge's line) of
+    each quad; P (n, 4, 2) vertices in cyclic order."""
+    P = np.ascontiguousarray(P, dtype=float)
+    n = P.shape[0]
+    cd = np.arange(4 * n, dtype=np.int64).reshape(n, 4)
+    return _quad_min_size(P.reshape(-1, 2), cd, np.empty(n))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -297,6 +335,13 @@ def advance_general(nsteps, dt, v, a, free_minv, mass, du, n, force_args, fload,
 # drivers: prescribed motion, external loads, and the steps that integrate them with contact
 
 
+def _raise_on_any(comm, why):
+    """ValueError on every rank when ``why`` (a message or None) is set on any rank."""
+    whys = [w for w in comm.allgather(why) if w] if comm.size > 1 else [why] if why else []
+    if whys:
+        raise ValueError(whys[0])
+
+
 def _as_function(value):
     """A callable of t: the value itself, or a constant."""
     if callable(value):
@@ -350,19 +395,23 @@ class Drivers:
 
     # -- prescribed motion -------------------------------------------------------------------
     def add_set(self, component, dofs, kind, fun, name=None):
-        """Register a set; ``dofs`` unrolled owned(+ghost) indices of ``component``. A dof already
-        constrained (velocity_bcs, another set) is refused. Returns the set id."""
+        """Register a set: component ``component`` of the nodes ``dofs`` (block indices of the
+        solver's space, owned + ghost; ghosts ignored). A dof already constrained (velocity_bcs,
+        another set) is refused (ValueError on every rank: collective). Returns the set id."""
         if component not in range(self.bs):
             raise ValueError(f"component must be 0..{self.bs - 1}, got {component!r}")
-        dofs = np.unique(np.asarray(dofs, dtype=np.int64).reshape(-1))
-        if (dofs % self.bs != component).any():
-            raise ValueError(f"prescribed dofs must be unrolled dofs of component {component} "
-                             "(e.g. ExplicitDynamics.boundary_dofs)")
+        nodes = np.unique(np.asarray(dofs, dtype=np.int64).reshape(-1))
+        why = None
+        n_local = self.s.u.x.array.size // self.bs
+        if nodes.size and (nodes.min() < 0 or nodes.max() >= n_local):
+            why = (f"prescribed dofs must be node (block) indices of the solver's space, 0 <= i < {n_local} "
+                   "(e.g. ExplicitDynamics.boundary_dofs)")
+        dofs = nodes * self.bs + component                  # unrolled
         dofs = dofs[dofs < self.n]
         clash = np.intersect1d(dofs, np.union1d(self.s.fixed, self.pdofs))
-        if clash.size:
-            raise ValueError(f"{clash.size} of the prescribed dofs are already constrained "
-                             "(velocity_bcs or another prescribed set)")
+        if why is None and clash.size:
+            why = f"{clash.size} of the prescribed dofs are already constrained (velocity_bcs or another prescribed set)"
+        _raise_on_any(self.s.comm, why)
         self.sets.append(dict(component=int(component), dofs=dofs, kind=kind, fun=_as_function(fun),
                               name=name or f"set{len(self.sets)}"))
         self._build()
@@ -465,7 +514,12 @@ class Drivers:
             s.v.x.scatter_forward()
         s._internal_force()
         if self.loads:
-            self.load_vector(s.t, self.fload)
+            why = None
+            try:
+                self.load_vector(s.t, self.fload)
+            except ValueError as e:                     # e.g. a callable's size, maybe on one rank only
+                why = str(e)
+            _raise_on_any(s.comm, why)
         if s.contact.pairs:
             tr = s.contact.translations(s.t)
             s.contact.update(s.u.x.array, np.zeros_like(s.u.x.array), 0.0, tr, tr, self.fcon, s.t)
