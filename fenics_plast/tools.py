@@ -202,6 +202,10 @@ class Profile(Tool):
     a corner, the sign is the corner's (+ where the tool is convex, - where it is concave); beyond
     an open end the sign is the side of the end's tangent line and g the distance to the end.
 
+    In UFL each piece gives (g, N) from its projection parameter clamped to the piece (inside the
+    piece, or at its start or end point), and nested ``ufl.conditional`` pick the nearest piece;
+    ``ufl.derivative`` goes through it (Newton Jacobian of the penalty residual).
+
     Example, an axisymmetric die (opening radius 20, shoulder radius 5, top z = 0 out to r = 60)::
 
         die = Profile([("line", (20, -30), (20, -5)),           # vertical wall, going up
@@ -243,7 +247,7 @@ class Profile(Tool):
             self.pieces[a]["sigma"][1] = self.pieces[b]["sigma"][0] = s
 
     def _piece(self, k, s):
-        kind = s[0] if len(s) else None
+        kind = s[0] if isinstance(s, (tuple, list)) and s else None
         if kind == "line" and len(s) == 3:
             a, b = np.asarray(s[1], dtype=float), np.asarray(s[2], dtype=float)
             L = float(np.linalg.norm(b - a))
