@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .scene import SceneError, keys_markdown, load_scene
+from .scene import SceneError, keys_markdown, load_any, load_scene
 
 EXIT_OK, EXIT_RUN_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -48,24 +48,10 @@ def _say(msg: str) -> None:
 # run
 
 
-def _is_general(path) -> bool:
-    """A scene file of the general format (it has an [analysis] table), not an old scene kind."""
-    import tomllib
-    try:
-        return "analysis" in tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
-        return False
-
-
 def cmd_run(args) -> int:
-    from .problem import SceneError as ProblemError
     try:
-        if _is_general(args.scene):
-            from .problem import load_problem
-            scene = load_problem(args.scene, args.set or ())
-        else:
-            scene = load_scene(args.scene, args.set or ())
-    except (SceneError, ProblemError) as e:
+        scene = load_any(args.scene, args.set or ())
+    except SceneError as e:
         _error(str(e))
         return EXIT_USAGE
 
@@ -110,7 +96,7 @@ def cmd_run(args) -> int:
         from .runner import read_mesh
         try:
             mesh_data = read_mesh(scene, comm)
-        except ProblemError as e:
+        except SceneError as e:
             _error(str(e))
             return EXIT_USAGE
         general_runner = runner
@@ -141,7 +127,7 @@ def cmd_run(args) -> int:
         if not summary["converged"]:
             status = EXIT_RUN_FAILED
             _error(f"run of {scene.name!r} did not converge")
-    except ProblemError as e:          # found while setting up (e.g. a symmetry group that is not straight)
+    except SceneError as e:            # found while setting up (e.g. a symmetry group that is not straight)
         status = EXIT_USAGE
         summary.update(converged=False, error=str(e))
         _error(str(e))

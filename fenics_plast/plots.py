@@ -150,6 +150,8 @@ def draw(out_dir: str | Path, kind: str | None = None, title: str | None = None,
     if summary is None and kind is None:
         summary = _read_summary(out_dir)
     summary = dict(summary or {})
+    if kind is None and isinstance(summary.get("scene_settings"), dict) and "analysis" in summary["scene_settings"]:
+        return draw_declared(out_dir, title=title, render=render)      # a scene of the general format
     kind = kind or summary.get("kind")
     if not kind:
         raise PlotError(f"{out_dir}/summary.json has no 'kind'")
@@ -158,9 +160,14 @@ def draw(out_dir: str | Path, kind: str | None = None, title: str | None = None,
     if not (out_dir / "history.csv").exists():
         raise PlotError(f"{out_dir}: no history.csv (not a results folder of `fenics-plast run`)")
     title = title if title is not None else summary.get("scene")
+    return _draw_figures(out_dir, FIGURES[kind], title, summary, render)
+
+
+def _draw_figures(out_dir: Path, figures, title, summary, render) -> list[Path]:
+    """Draw each figure whose CSV is in ``out_dir`` (a missing column is a PlotError)."""
     tables: dict[str, dict[str, np.ndarray]] = {}
     paths = []
-    for fig in FIGURES[kind]:
+    for fig in figures:
         src = out_dir / fig.source
         if not src.exists():
             continue
@@ -333,22 +340,4 @@ def draw_declared(out_dir: str | Path, settings: Mapping[str, Any] | None = None
         if not isinstance(settings, dict):
             raise PlotError(f"{out_dir}/summary.json has no scene_settings")
     title = title if title is not None else (summary.get("scene") or (settings.get("scene") or {}).get("name"))
-    tables: dict[str, dict[str, np.ndarray]] = {}
-    paths = []
-    for fig in declared_figures(settings):
-        src = out_dir / fig.source
-        if not src.exists():
-            continue
-        data = tables.setdefault(fig.source, read_csv(src))
-        need = ([fig.x, *fig.ys.values()] + ([fig.group] if fig.group else [])
-                if isinstance(fig, Lines) else [fig.value] + _poly_columns())
-        missing = [c for c in need if c not in data]
-        if missing:
-            raise PlotError(f"{src}: no column(s) {', '.join(missing)} for {fig.name}.png "
-                            f"(columns: {', '.join(data)})")
-        path = out_dir / f"{fig.name}.png"
-        if render:
-            full = fig.title + (f"\n{title}" if title else "")
-            (_draw_lines(path, fig, data, summary, full) if isinstance(fig, Lines) else _draw_cells(path, fig, data, full))
-        paths.append(path)
-    return paths
+    return _draw_figures(out_dir, declared_figures(settings), title, summary, render)

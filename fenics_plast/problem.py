@@ -37,7 +37,7 @@ from typing import Any, Iterable
 from fenics_plast.expressions import ExpressionError, parse_value
 
 __all__ = ["SceneError", "Problem", "Section", "load_problem", "parse_problem", "SCHEMA", "REQUIRED",
-           "OPTIONAL", "COMPONENTS", "component_index"]
+           "OPTIONAL", "COMPONENTS"]
 
 
 class SceneError(ValueError):
@@ -64,15 +64,11 @@ M_S = 1e3          # velocities are written in m/s -> mm/s
 KG_M3 = 1e-12      # densities are written in kg/m^3 -> tonne/mm^3
 
 
-def component_index(name: str) -> int:
-    return COMPONENTS[name]
-
-
 @dataclass(frozen=True)
 class Key:
     """One scene key. ``when`` = {discriminator key: allowed values} restricts it to table variants
     (e.g. {"type": ("static",)}); ``when_analysis`` restricts it to analysis types."""
-    type: str                       # str | int | float | bool | floats | strs | vector | value | values | numbers
+    type: str                       # str | int | float | bool | floats | strs | vector | values | segments | path
     default: Any                    # a value, REQUIRED or OPTIONAL
     doc: str
     unit: str = ""
@@ -407,7 +403,6 @@ class Problem:
     path: Path
     name: str
     tables: dict[str, Any]
-    raw: dict = field(default_factory=dict)           # the TOML after --set, as read (checkpoint settings)
     overrides: tuple[str, ...] = field(default_factory=tuple)
 
     def __getattr__(self, key: str):
@@ -718,7 +713,7 @@ def _validate(raw: dict, where: str, path: Path, overrides: tuple[str, ...]) -> 
     _cross_checks(tables, v)
     if tables["steps"]:
         tables["steps"] = dict(sorted(tables["steps"].items(), key=lambda kv: kv[1].end))
-    return Problem(path=path, name=tables["scene"].name, tables=tables, raw=raw, overrides=overrides)
+    return Problem(path=path, name=tables["scene"].name, tables=tables, overrides=overrides)
 
 
 def _cross_checks(t: dict[str, Any], v: _Validator):
@@ -813,7 +808,7 @@ def _parse_override(text: str, where: str) -> tuple[list[str], Any]:
     parts = dotted.strip().split(".")
     if len(parts) < 2 or any(not p for p in parts):
         raise SceneError(f"{where}: --set {text!r}: {dotted.strip()!r} must be a dotted key such as "
-                         f"materials.steel.nu")
+                         f"analysis.rtol")
     try:
         parsed = tomllib.loads(f"v = {value.strip()}")["v"]
     except tomllib.TOMLDecodeError:
@@ -834,8 +829,9 @@ def apply_overrides(raw: dict, overrides: Iterable[str], where: str) -> dict:
     return raw
 
 
-def parse_problem(text: str, path: str | Path = "<string>", overrides: Iterable[str] = ()) -> Problem:
-    """Validate TOML text (``path`` names it in messages and resolves the mesh file)."""
+def parse_with(validate, text: str, path: str | Path = "<string>", overrides: Iterable[str] = ()):
+    """TOML text -> ``validate(raw, where, path, overrides)`` after the ``--set`` overrides; an error on
+    a key that came from the command line says so. Shared by both scene formats."""
     path = Path(path)
     where = str(path)
     try:
@@ -845,7 +841,7 @@ def parse_problem(text: str, path: str | Path = "<string>", overrides: Iterable[
     overrides = tuple(overrides)
     apply_overrides(raw, overrides, where)
     try:
-        return _validate(raw, where, path, overrides)
+        return validate(raw, where, path, overrides)
     except SceneError as e:
         msg = str(e)
         body = msg[len(where) + 2:] if msg.startswith(where + ": ") else msg
@@ -858,13 +854,30 @@ def parse_problem(text: str, path: str | Path = "<string>", overrides: Iterable[
         raise SceneError(f"{where}: the file nests too deeply") from None
 
 
-def load_problem(path: str | Path, overrides: Iterable[str] = ()) -> Problem:
-    """Read and validate a scene file; ``overrides`` are ``"a.b.c=value"`` strings (``--set``)."""
+def read_scene_file(path: str | Path) -> str:
+    """The text of a scene file; SceneError naming the file when it cannot be read."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        return path.read_text(encoding="utf-8")
     except OSError as e:
         raise SceneError(f"{path}: cannot read scene file: {e.strerror or e}") from None
     except UnicodeDecodeError as e:
         raise SceneError(f"{path}: not UTF-8 text: {e}") from None
-    return parse_problem(text, path, overrides)
+
+
+def parse_problem(text: str, path: str | Path = "<string>", overrides: Iterable[str] = ()) -> Problem:
+    """Validate TOML text (``path`` names it in messages and resolves the mesh file)."""
+    return parse_with(_validate, text, path, overrides)
+
+
+def load_problem(path: str | Path, overrides: Iterable[str] = ()) -> Problem:
+    """Read and validate a scene file; ``overrides`` are ``"a.b.c=value"`` strings (``--set``)."""
+    return parse_problem(read_scene_file(path), path, overrides)
+
+
+def is_general(text: str) -> bool:
+    """A scene file of the general format has an [analysis] table (the old kind files do not)."""
+    try:
+        return "analysis" in tomllib.loads(text)
+    except tomllib.TOMLDecodeError:
+        return False

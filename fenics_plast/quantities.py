@@ -65,9 +65,6 @@ class Body:
         nodes = fem.locate_dofs_topological(self.V, self.V.mesh.topology.dim - 1, facet_tags.find(tag))
         return nodes[nodes < self.n_owned_nodes] if owned else nodes
 
-    def reduce(self, x, op):
-        return self.comm.allreduce(x, op=op)
-
 
 class Quantities:
     """Evaluates every declared output on a :class:`Body`; ``row()`` -> {column: value}."""

@@ -16,21 +16,15 @@ inside the package and in µs in scene files, tables and expressions, history.cs
 """
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import ufl
 from dolfinx import fem, io
 from mpi4py import MPI
 
 from fenics_plast.checkpoint import Checkpointer, scene_settings
-from fenics_plast.errors import RunError
-from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Hardening, Material
 from fenics_plast.meshing import MeshError, mesh_from_file
 from fenics_plast.problem import COMPONENTS, SceneError
-from fenics_plast.quadrature import von_mises
-from fenics_plast.quantities import Body, Quantities
 
 US = 1e-6
 
@@ -88,7 +82,7 @@ def read_mesh(problem, comm):
     return mesh, ct, ft, groups
 
 
-def single_material(problem, cell_tags, groups):
+def single_material(problem):
     """The material of the body. Several materials must cover disjoint regions; this version
     solves one material per problem and refuses more (clear message)."""
     mats = problem.materials
@@ -134,24 +128,29 @@ def values_of(b, n):
     return list(v) if isinstance(v, tuple) else [v] * n
 
 
-def tool_of(name, spec, time_scale=1.0):
-    """A :mod:`fenics_plast.tools` tool from a validated [tools.<name>] table. ``time_scale``: seconds
-    per unit of the path's t (explicit: the file's µs)."""
-    from fenics_plast import tools as T
-    path = None
-    if spec.path:
-        comps = spec.path
+def tool_path(path, time_scale=1.0):
+    """A tool's translation ``(t, use_ufl) -> (dx, dy)`` from a validated ``path`` table (component ->
+    Value of t), or None (fixed). ``time_scale``: seconds per unit of the table's t (explicit: µs)."""
+    if not path:
+        return None
 
-        def path(t, use_ufl):
-            tt = t * (1.0 / time_scale) if time_scale != 1.0 else t
-            out = []
-            for c in ("x", "y"):
-                val = comps.get(c)
-                if val is None:
-                    out.append(ufl.as_ufl(0.0) if use_ufl else 0.0)
-                else:
-                    out.append(val.to_ufl(t=tt) if use_ufl else float(val.evaluate(t=tt)))
-            return tuple(out) if use_ufl else np.array(out)
+    def translation(t, use_ufl):
+        tt = t * (1.0 / time_scale) if time_scale != 1.0 else t
+        out = []
+        for c in ("x", "y"):
+            val = path.get(c)
+            if val is None:
+                out.append(ufl.as_ufl(0.0) if use_ufl else 0.0)
+            else:
+                out.append(val.to_ufl(t=tt) if use_ufl else float(val.evaluate(t=tt)))
+        return tuple(out) if use_ufl else np.array(out)
+    return translation
+
+
+def tool_of(name, spec, time_scale=1.0):
+    """A :mod:`fenics_plast.tools` tool from a validated [tools.<name>] table."""
+    from fenics_plast import tools as T
+    path = tool_path(spec.path, time_scale)
     if spec.shape == "plane":
         return T.Plane(spec.point, spec.normal, path=path, name=name)
     if spec.shape == "circle":
@@ -174,6 +173,14 @@ def checkpointer(problem, output, comm):
         return None
     return Checkpointer(output.out_dir, comm, scene_settings(problem), problem.analysis.type, every=every,
                         resume=resume, output=output)
+
+
+def write_final_shape(problem, output, V, positions, qmap):
+    """final_shape.csv (deformed cells and their mean eqps) when the scene declares a shape plot; collective."""
+    if not any(p.type == "shape" for p in problem.plots.values()):
+        return
+    from fenics_plast.plots import cells_table
+    output.write_csv("final_shape", cells_table(V, positions, qmap.cell_mean(qmap.eqps, name="eqps"), "eqps"))
 
 
 def draw_plots(problem, output):

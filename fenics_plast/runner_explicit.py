@@ -14,7 +14,7 @@ from fenics_plast.kinematics import Kinematics
 from fenics_plast.problem import M_S, SceneError
 from fenics_plast.quantities import Body, Quantities
 from fenics_plast.runner import (cell_regions, checkpointer, components_of, draw_plots, open_fields, read_mesh,
-                                 single_material, symmetry_component, tool_of, values_of)
+                                 single_material, symmetry_component, tool_of, values_of, write_final_shape)
 from fenics_plast.solvers.explicit import ExplicitDynamics
 
 US = 1e-6
@@ -52,7 +52,7 @@ def velocity_constraints(problem, V, ft, groups):
 def run_explicit(problem, output, comm, mesh_data=None) -> dict:
     mesh, ct, ft, groups = mesh_data if mesh_data is not None else read_mesh(problem, comm)
     ana = problem.analysis
-    _, mspec, material = single_material(problem, ct, groups)
+    _, mspec, material = single_material(problem)
     kin = Kinematics(mesh, problem.mesh.geometry)
     V = fem.VectorFunctionSpace(mesh, ("Lagrange", 1))
     zero, moving, loads = velocity_constraints(problem, V, ft, groups)
@@ -146,10 +146,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
                step_loop_time_s=stats["wall_s"], time_per_step_s=stats["time_per_step_s"],
                setup_time_s=solver.timings["setup_s"], cells=solver.cells_global, dofs=solver.dofs_global,
                converged=True)
-    if any(p.type == "shape" for p in problem.plots.values()):
-        from fenics_plast.plots import cells_table
-        eq = solver.qmap.cell_mean(solver.qmap.eqps, name="eqps")
-        output.write_csv("final_shape", cells_table(solver.V, solver.nodal_positions(), eq, "eqps"))
+    write_final_shape(problem, output, solver.V, solver.nodal_positions(), solver.qmap)
     draw_plots(problem, output)
     return res
 

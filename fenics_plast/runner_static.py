@@ -13,11 +13,12 @@ import ufl
 
 from fenics_plast.errors import RunError
 from fenics_plast.kinematics import Kinematics
-from fenics_plast.problem import SceneError
+from fenics_plast.problem import COMPONENTS, SceneError
 from fenics_plast.quadrature import von_mises
 from fenics_plast.quantities import Body, Quantities
 from fenics_plast.runner import (cell_regions, checkpointer, components_of, draw_plots, open_fields,
-                                 read_mesh, single_material, symmetry_component, tool_of, values_of)
+                                 read_mesh, single_material, symmetry_component, tool_of, values_of,
+                                 write_final_shape)
 from fenics_plast.solvers.static import StaticSolver
 
 
@@ -74,7 +75,7 @@ def reaction_dofs(problem, s, ft, groups, constrained):
     for name, o in problem.outputs.items():
         if o.quantity != "reaction":
             continue
-        c = {"x": 0, "y": 1, "r": 0, "z": 1}[o.component]
+        c = COMPONENTS[o.component]
         if c not in constrained.get(o.group, set()):
             raise SceneError(f"{problem.path}: outputs.{name}: group {o.group!r} has no boundary condition "
                              f"on component {o.component}: there is no reaction to record")
@@ -92,8 +93,7 @@ def add_contact(problem, s, ft, groups, material, tools):
         return None, {}
     from fenics_plast.contact import PenaltyContact
     from fenics_plast.tools import contact_length_scale, default_penalty
-    first = next(iter(problem.contact.values()))
-    c = PenaltyContact(s, default_penalty(material.E, 1.0), friction=0.0, law=first.law)
+    c = PenaltyContact(s)            # every pair carries its own penalty, friction and law
     pairs = {}
     for name, spec in problem.contact.items():
         tag = groups[spec.group][1]
@@ -109,7 +109,7 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
     t_setup = time.perf_counter()
     mesh, ct, ft, groups = mesh_data if mesh_data is not None else read_mesh(problem, comm)
     ana = problem.analysis
-    _, mspec, material = single_material(problem, ct, groups)
+    _, mspec, material = single_material(problem)
     kin = Kinematics(mesh, problem.mesh.geometry)
     opts = dict(rtol=ana.rtol, atol=ana.atol, max_iterations=ana.max_iterations, linesearch=ana.linesearch)
     steps = [(n, st.end, st.increments or ana.increments, st.max_increment or ana.max_increment)
@@ -206,13 +206,14 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
         if contact is not None:
             res["max_penetration_mm"] = contact.max_penetration()
             for n, p in pairs.items():
-                res[f"penalty_{n}_N_mm3"] = float(p.penalty) if hasattr(p, "penalty") else None
+                res[f"penalty_{n}_N_mm3"] = p.penalty
         return res
 
     def finish():
         for name in quantities.profiles:
             if quantities.profiles[name]:
                 output.write_csv(name, quantities.profile_table(name))
+        write_final_shape(problem, output, Vc, positions(), s.qmap)
         draw_plots(problem, output)
 
     try:

@@ -13,19 +13,17 @@ mm/s (x 1e3), the value as written stays in ``loading.velocity_m_s``.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
 
 __all__ = [
-    "SceneError", "Scene", "Section", "load_scene", "parse_scene", "keys_markdown", "SCHEMA",
+    "SceneError", "Scene", "Section", "load_scene", "parse_scene", "load_any", "keys_markdown", "SCHEMA",
     "KINDS", "REQUIRED", "OPTIONAL",
 ]
 
 
-class SceneError(ValueError):
-    """A scene file (or a ``--set`` override) is invalid. The message names the file and key."""
+from fenics_plast.problem import SceneError, is_general, parse_with, read_scene_file
 
 
 class _Marker:
@@ -552,68 +550,22 @@ def _cross_checks(s: dict[str, Section | None], kind: str, v: _Validator):
 # Overrides and loading
 
 
-def _parse_override(text: str, where: str) -> tuple[list[str], Any]:
-    if "=" not in text:
-        raise SceneError(f"{where}: --set {text!r} must have the form section.key=value")
-    dotted, value = text.split("=", 1)
-    dotted = dotted.strip()
-    parts = dotted.split(".")
-    if len(parts) < 2 or any(not p for p in parts):
-        raise SceneError(f"{where}: --set {text!r}: {dotted!r} must be a dotted key such as material.nu")
-    value = value.strip()
-    try:
-        parsed = tomllib.loads(f"v = {value}")["v"]
-    except tomllib.TOMLDecodeError:
-        parsed = value
-    return parts, parsed
-
-
-def apply_overrides(raw: dict, overrides: Iterable[str], where: str) -> dict:
-    for text in overrides:
-        parts, value = _parse_override(text, where)
-        d = raw
-        for i, p in enumerate(parts[:-1]):
-            nxt = d.setdefault(p, {})
-            if not isinstance(nxt, dict):
-                raise SceneError(f"{where}: --set {text!r}: {'.'.join(parts[:i + 1])} is not a table")
-            d = nxt
-        d[parts[-1]] = value
-    return raw
-
-
 def parse_scene(text: str, path: str | Path = "<string>", overrides: Iterable[str] = ()) -> Scene:
     """Validate TOML text (``path`` is only used in messages and as ``scene.path``)."""
-    path = Path(path)
-    where = str(path)
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise SceneError(f"{where}: TOML syntax error: {e}") from None
-    overrides = tuple(overrides)
-    apply_overrides(raw, overrides, where)
-    try:
-        return _validate(raw, where, path, overrides)
-    except SceneError as e:
-        # say when the offending key came from the command line
-        msg = str(e)
-        body = msg[len(where) + 2:] if msg.startswith(where + ": ") else msg
-        for text in overrides:
-            key = text.split("=", 1)[0].strip()
-            if body == key or body.startswith(key + " ") or body.startswith(key + ":"):
-                raise SceneError(f"{msg} (from --set {text})") from None
-        raise
+    return parse_with(_validate, text, path, overrides)
 
 
 def load_scene(path: str | Path, overrides: Iterable[str] = ()) -> Scene:
     """Read and validate a scene file; ``overrides`` are ``"a.b.c=value"`` strings (``--set``)."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as e:
-        raise SceneError(f"{path}: cannot read scene file: {e.strerror or e}") from None
-    except UnicodeDecodeError as e:
-        raise SceneError(f"{path}: not UTF-8 text: {e}") from None
-    return parse_scene(text, path, overrides)
+    return parse_scene(read_scene_file(path), path, overrides)
+
+
+def load_any(path: str | Path, overrides: Iterable[str] = ()):
+    """A :class:`fenics_plast.problem.Problem` for a file of the general format (it has [analysis]),
+    else a :class:`Scene` of the old kinds (until those are removed)."""
+    from fenics_plast.problem import parse_problem
+    text = read_scene_file(path)
+    return (parse_problem if is_general(text) else parse_scene)(text, path, overrides)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -102,3 +102,24 @@ def test_bad_group_name_is_refused_before_anything_is_written(tmp_path):
     assert p.returncode == 2
     assert "contact.die.group = 'nope'" in p.stderr and "axis, lower, rim, upper" in p.stderr
     assert not out.exists()
+
+
+def test_plot_and_study_read_the_general_format(tmp_path):
+    """`fenics-plast plot` redraws the declared figures; `study` validates and runs a general scene."""
+    out = tmp_path / "punch"
+    s = run_scene(GENERAL / "punch_stretching.toml", out, "analysis.max_increment=0.1", "steps.to_20mm.end=0.25",
+                  "steps.to_40mm.end=0.5")
+    assert s["converged"]
+    for png in out.glob("*.png"):
+        png.unlink()
+    p = subprocess.run(FP + ["plot", str(out)], capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    assert sorted(x.name for x in out.glob("*.png")) == ["punch_force.png", "thickness_strain.png"]
+    study = tmp_path / "study"
+    p = subprocess.run(FP + ["study", str(GENERAL / "punch_stretching.toml"), "--vary", "contact.punch.friction=0,0.1",
+                             "--set", "steps.to_20mm.end=0.25", "--set", "steps.to_40mm.end=0.5",
+                             "--out", str(study)], capture_output=True, text=True, cwd=ROOT,
+                       env=dict(os.environ, FENICS_PLAST_PROGRESS="off"))
+    assert p.returncode == 0, p.stdout[-1500:] + p.stderr[-1500:]
+    text = (study / "study.csv").read_text()
+    assert "err_punch_force_kN" in text and text.count("\n") == 3
