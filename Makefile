@@ -32,9 +32,9 @@ test-slow: install
 bench: install
 	@shopt -s nullglob; for b in benchmarks/*.py; do echo "== $$b"; $(PY) "$$b" || exit 1; done
 
-# Regenerate docs/SCENE_KEYS.md and the reference at the end of README.md from the schema in fenics_plast/scene.py.
+# Regenerate docs/SCENE_KEYS.md from the schema in fenics_plast/problem.py.
 keys: install
-	$(PY) -m fenics_plast.scene
+	$(PY) -m fenics_plast.keys_doc
 
 # The README's two commands on a new minimal Debian bookworm root (debootstrap + chroot, the Dockerfile's
 # steps); needs root. ~12 min the first time on a machine, ~9 min once the .deb files are cached.

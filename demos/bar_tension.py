@@ -49,32 +49,39 @@ from scipy.optimize import brentq
 from _common import COMM, ROOT, draw_cells, figure, gather_cells, options, say, write_summary
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Hardening, Material
-from fenics_plast.meshing import bar_mesh
-from fenics_plast.scene import load_scene
+from fenics_plast.meshing import mesh_from_file
+from fenics_plast.problem import load_problem
 from fenics_plast.solvers.static import StaticSolver
 
 args = options("bar_tension", "Necking of a round bar in tension (static Newton)")
 
 # %% [markdown]
 # ## Parameters (from `demos/bar_tension.toml`; coarse: 4 × 12 cells)
+# `load_problem` reads and checks the scene file. The geometry is the Gmsh parameters of
+# `[mesh.parameters]` (`length` is the modelled half), the solver settings are `[analysis]`, the
+# material `[materials.steel]`, and the gripped end's displacement is `boundary.grip.value`, an
+# expression of the load factor t (7 mm at t = 1).
 
 # %%
-overrides = ["mesh.cells_radial=4", "mesh.cells_axial=12"] if args.coarse else []
-scene = load_scene(ROOT / "demos" / "bar_tension.toml", overrides)
-m, mat, sv = scene.mesh, scene.material, scene.solver
-R, half, imp = m.radius, 0.5 * m.length, m.imperfection
-end_displacement = 0.5 * scene.loading.displacement        # of the modelled half [mm]
+overrides = ["mesh.parameters.cells_radial=4", "mesh.parameters.cells_axial=12"] if args.coarse else []
+problem = load_problem(ROOT / "demos" / "bar_tension.toml", overrides)
+p, mat, sv = problem.mesh.parameters, problem.materials["steel"], problem.analysis
+R, half, imp = p["radius"], p["length"], p["imperfection"]
+end_displacement = float(problem.boundary["grip"].value.evaluate(t=1.0))   # of the modelled half [mm]
 h = mat.hardening
 material = Material(mat.E, mat.nu, Hardening("voce", yield_stress=h.yield_stress, Q=h.Q, b=h.b,
                                              modulus=h.modulus), model=mat.model)
 
 # %% [markdown]
 # ## Mesh and kinematics
-# `meshes/round_bar.geo` tapers the radius linearly from R at z = L/2 to R(1 − 0.018) at z = 0.
+# `mesh_from_file` meshes the scene's `meshes/round_bar.geo`, which tapers the radius linearly from
+# R at z = L/2 to R(1 − 0.018) at z = 0; its facet groups (`axis`, `bottom`, `top`, `outer`) come
+# back by name as (dimension, tag).
 
 # %%
-mesh, cell_tags, facet_tags, tags = bar_mesh(COMM, R, half, m.cells_radial, m.cells_axial, imperfection=imp)
-kin = Kinematics(mesh, "axisymmetric")
+mesh, cell_tags, facet_tags, groups = mesh_from_file(COMM, problem.mesh_file, p)
+tags = {name: tag for name, (dim, tag) in groups.items() if dim == 1}     # facet groups
+kin = Kinematics(mesh, problem.mesh.geometry)
 
 # %% [markdown]
 # ## Spaces, forms, boundary conditions
@@ -83,11 +90,11 @@ kin = Kinematics(mesh, "axisymmetric")
 # MUMPS). Dirichlet values are multiplied by the load factor λ.
 
 # %%
-solver = StaticSolver(kin, material, element=m.element, rtol=sv.rtol, atol=sv.atol,
+solver = StaticSolver(kin, material, element=problem.mesh.element, rtol=sv.rtol, atol=sv.atol,
                       max_iterations=sv.max_iterations, linesearch=sv.linesearch, verbose=False)
 solver.add_dirichlet(0, facet_tags, tags["axis"], 0.0)                 # u_r = 0 on the axis
-solver.add_dirichlet(1, facet_tags, tags["bottom"], 0.0)               # symmetry plane z = 0
-solver.add_dirichlet(1, facet_tags, tags["top"], end_displacement)     # gripped end
+solver.add_dirichlet(1, facet_tags, tags["bottom"], 0.0)               # symmetry plane z = 0, where the neck forms
+solver.add_dirichlet(1, facet_tags, tags["top"], end_displacement)     # gripped end, times t
 solver.setup()
 top_dofs = solver.constrained_dofs(1, facet_tags, tags["top"])
 say(f"W = {solver.W.ufl_element()}\n{solver.dofs} dofs, {solver.qmap.n} quadrature points on rank 0")
@@ -140,14 +147,14 @@ eps_star = brentq(lambda e: dsy(e) - sy(e), 1e-6, 5.0)
 considere = sy(eps_star) * np.pi * (R * (1 - imp)) ** 2 * np.exp(-eps_star) / 1e3
 i = int(np.argmax(hist["force"]))
 results = write_summary(args.out, dict(
-    max_force_kN=hist["force"][i], elongation_at_max_mm=hist["elongation"][i],
-    considere_force_kN=considere, considere_strain=eps_star, final_neck_radius_mm=hist["neck"][-1],
-    final_force_kN=hist["force"][-1], increments=len(solver.increments),
+    max_force_kN=hist["force"][i], elongation_mm_at_max_force_kN=hist["elongation"][i],
+    considere_force_kN=considere, considere_strain=eps_star, neck_radius_mm=hist["neck"][-1],
+    force_kN=hist["force"][-1], increments=len(solver.increments),
     newton_iterations=solver.total_iterations, wall_time_s=wall, cells=mesh.topology.index_map(2).size_global,
     coarse=args.coarse))
-for k in ("max_force_kN", "elongation_at_max_mm", "considere_force_kN", "final_neck_radius_mm",
+for k in ("max_force_kN", "elongation_mm_at_max_force_kN", "considere_force_kN", "neck_radius_mm",
           "increments", "newton_iterations", "wall_time_s"):
-    say(f"{k:24s} {results[k]:.10g}")
+    say(f"{k:30s} {results[k]:.10g}")
 
 u = solver.displacement_function()
 polys, vals = gather_cells(Vu, u.x.array, solver.qmap.cell_mean(solver.qmap.eqps).x.array)

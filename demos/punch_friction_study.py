@@ -1,7 +1,8 @@
 """Friction study of the hemispherical punch-stretching scene (seed figs. 4 and 5).
 
-Runs demos/punch_stretching.toml through the CLI for mu = 0, 0.15, 0.3 (Quasi-Coulomb; add
---coulomb to also run mu = 0.15 with the full Coulomb law) and overlays
+Runs demos/punch_stretching.toml through the CLI for mu = 0, 0.15, 0.3 on both contact pairs
+(contact.punch.friction and contact.die.friction; Quasi-Coulomb, add --coulomb to also run
+mu = 0.15 with the full Coulomb law) and overlays
 * the three punch force - displacement curves  -> results/punch_friction_study/punch_force.png
 * the three thickness-strain distributions (final state and 20 mm) -> thickness_strain.png
 plus a table study.csv (one row per run). A run that stops early (mu = 0.3 may neck) is plotted
@@ -32,10 +33,13 @@ TRAVEL_MM = {0.3: 48.0}
 def run_one(mu, law, nprocs, extra):
     out = OUT / f"mu_{mu:g}_{law}"
     fp = str(ROOT / ".venv" / "bin" / "fenics-plast")
-    cmd = [fp, "run", str(ROOT / "demos" / "punch_stretching.toml"), "--out", str(out),
-           "--set", f"contact.friction={mu}", "--set", f"contact.law={law}"]
-    if mu in TRAVEL_MM and not any(s.startswith("loading.travel=") for s in extra):
-        cmd += ["--set", f"loading.travel={TRAVEL_MM[mu]}"]
+    cmd = [fp, "run", str(ROOT / "demos" / "punch_stretching.toml"), "--out", str(out)]
+    for pair in ("punch", "die"):
+        cmd += ["--set", f"contact.{pair}.friction={mu}", "--set", f"contact.{pair}.law={law}"]
+    if mu in TRAVEL_MM and not any(s.startswith(("tools.punch.path", "steps.")) for s in extra):
+        # the punch path (t from 0 to 1) to the longer travel; the first step still ends at 20 mm
+        travel = TRAVEL_MM[mu]
+        cmd += ["--set", f"tools.punch.path.y=[0.0, {travel}]", "--set", f"steps.to_20mm.end={20.0 / travel}"]
     for s in extra:
         cmd += ["--set", s]
     if nprocs > 1:
@@ -62,6 +66,9 @@ def main(argv=None):
     if a.coulomb:
         runs.append((0.15, "coulomb"))
     res = {key: run_one(*key, a.np, a.set) for key in runs}
+    for (mu, law), (s, h, th) in res.items():      # the run's settings and the travel at the force maximum
+        s.update(friction=mu, contact_law=law,
+                 punch_displacement_at_max_mm=float(h["punch_displacement_mm"][np.argmax(h["punch_force_kN"])]))
 
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -78,18 +85,19 @@ def main(argv=None):
     fig = Figure(figsize=(6.4, 4.4)); FigureCanvasAgg(fig); ax = fig.add_subplot()
     for k, ((mu, law), (s, h, th)) in enumerate(res.items()):
         color = f"C{k}"
-        for tv in np.unique(th["travel_mm"]):
-            sel = th["travel_mm"] == tv
-            ax.plot(th["r0_mm"][sel], th["thickness_strain"][sel], "-" if tv == th["travel_mm"].max() else ":",
-                    color=color, label=f"mu = {mu:g}{' (C)' if law == 'coulomb' else ''}, {tv:.3g} mm")
+        for tv in np.unique(th["time"]):          # profiles at the ends of the steps (pseudo-time t)
+            sel = th["time"] == tv
+            travel = np.interp(tv, h["time"], h["punch_displacement_mm"])
+            ax.plot(th["s0_mm"][sel], th["value"][sel], "-" if tv == th["time"].max() else ":",
+                    color=color, label=f"mu = {mu:g}{' (C)' if law == 'coulomb' else ''}, {travel:.3g} mm")
     ax.set_xlabel("initial radius r0 [mm]"); ax.set_ylabel("thickness strain ln(t/t0)")
     ax.set_title("Thickness strain along the blank"); ax.grid(True, alpha=0.3); ax.legend(fontsize=7)
     fig.tight_layout(); fig.savefig(OUT / "thickness_strain.png", dpi=120)
 
     keys = ["friction", "contact_law", "converged", "increments", "newton_iterations", "wall_time_s",
-            "max_punch_force_kN", "punch_displacement_at_max_mm", "final_punch_displacement_mm",
-            "max_penetration_mm", "max_eqps", "r0_of_max_eqps_mm", "min_thickness_strain",
-            "r0_of_min_thickness_mm", "pole_thickness_strain"]
+            "max_punch_force_kN", "punch_displacement_at_max_mm", "punch_displacement_mm",
+            "max_penetration_mm", "max_eqps", "min_thickness_strain", "s0_of_min_thickness_strain_mm",
+            "thickness_strain_at_start"]
     with open(OUT / "study.csv", "w", newline="") as f:
         w = csv.writer(f); w.writerow(keys)
         for (s, h, th) in res.values():

@@ -47,37 +47,43 @@ from mpi4py import MPI
 from _common import COMM, ROOT, draw_cells, figure, gather_cells, options, say, write_summary
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Hardening, Material
-from fenics_plast.meshing import bar_mesh
-from fenics_plast.scene import load_scene
+from fenics_plast.meshing import mesh_from_file
+from fenics_plast.problem import load_problem
 from fenics_plast.solvers.explicit import ExplicitDynamics
 
 args = options("taylor_bar", "Taylor bar impact (explicit dynamics)")
 
 # %% [markdown]
 # ## Parameters
-# They come from the shipped scene file `demos/taylor_bar.toml` (units: mm, N, MPa, s; the file
-# gives the density in kg/m³ and the velocity in m/s, converted on reading). The coarse setting
+# They come from the shipped scene file `demos/taylor_bar.toml`, read by `load_problem` (units: mm,
+# N, MPa, s; the file gives the density in kg/m³, converted to tonne/mm³ on reading, the end time
+# in µs, converted to s, and the initial velocity `initial_velocity.bar.value` in m/s). The bar's
+# dimensions and cell counts are the Gmsh parameters of `[mesh.parameters]`. The coarse setting
 # halves the mesh in each direction.
 
 # %%
-overrides = ["mesh.cells_radial=3", "mesh.cells_axial=18"] if args.coarse else []
-scene = load_scene(ROOT / "demos" / "taylor_bar.toml", overrides)
-m, mat, ld = scene.mesh, scene.material, scene.loading
-rho = mat.density                     # tonne/mm^3
-v0 = ld.velocity                      # mm/s
-end_time = ld.end_time_us * 1e-6      # s
-say(f"R = {m.radius} mm, L = {m.length} mm, {m.cells_radial} x {m.cells_axial} cells, "
-    f"v0 = {v0 / 1e3:g} m/s, rho = {rho:.4g} t/mm^3, {ld.end_time_us:g} us")
+overrides = ["mesh.parameters.cells_radial=3", "mesh.parameters.cells_axial=18"] if args.coarse else []
+problem = load_problem(ROOT / "demos" / "taylor_bar.toml", overrides)
+p, mat = problem.mesh.parameters, problem.materials["copper"]
+R, L = p["radius"], p["length"]
+rho = mat.density                                                   # tonne/mm^3
+v0 = -float(problem.initial_velocity["bar"].value[1].evaluate()) * 1e3  # m/s (towards -z) -> mm/s
+end_time = problem.analysis.end_time                                # s
+say(f"R = {R} mm, L = {L} mm, {p['cells_radial']} x {p['cells_axial']} cells, "
+    f"v0 = {v0 / 1e3:g} m/s, rho = {rho:.4g} t/mm^3, {end_time * 1e6:g} us")
 
 # %% [markdown]
 # ## Mesh, kinematics and material
-# `bar_mesh` meshes `meshes/round_bar.geo` with Gmsh on rank 0 and distributes it; the facet
-# groups are named (`axis`, `bottom`, `top`, `outer`). `Kinematics` carries the 3 × 3
-# axisymmetric F (hoop stretch 1 + u_r/r), the weight 2πr and the quadrature measure.
+# `mesh_from_file` meshes the scene's `mesh.file`, `meshes/round_bar.geo`, with Gmsh on rank 0
+# (its parameters set from `[mesh.parameters]`) and distributes it; the Gmsh physical groups come
+# back by name as (dimension, tag): the facet groups `axis`, `bottom`, `top`, `outer`.
+# `Kinematics` carries the 3 × 3 axisymmetric F (hoop stretch 1 + u_r/r), the weight 2πr and the
+# quadrature measure.
 
 # %%
-mesh, cell_tags, facet_tags, tags = bar_mesh(COMM, m.radius, m.length, m.cells_radial, m.cells_axial)
-kin = Kinematics(mesh, "axisymmetric")
+mesh, cell_tags, facet_tags, groups = mesh_from_file(COMM, problem.mesh_file, p)
+tags = {name: tag for name, (dim, tag) in groups.items() if dim == 1}     # facet groups
+kin = Kinematics(mesh, problem.mesh.geometry)
 h = mat.hardening
 material = Material(mat.E, mat.nu, Hardening("linear", yield_stress=h.yield_stress, modulus=h.modulus),
                     model=mat.model)
@@ -91,17 +97,18 @@ say(f"{mesh.topology.index_map(2).size_global} cells; Lame lambda = {lam:.5g} MP
 # `QuadratureMap` (the Kirchhoff stress τ lives in a quadrature space; its update calls the
 # numba material kernel on the Fu expression) and compiles two forms once:
 # the internal force `kin.internal_virtual_work(u, θ, τ, v)` and the lumped mass
-# `ρ (1, 1)·v w dx`. The velocity constraints are (component, facets) pairs.
+# `ρ (1, 1)·v w dx`. The velocity constraints are (component, facets) pairs: the scene's
+# `[boundary.axis]` (type "axis") and `[boundary.wall]` (type "fixed", component z).
 #
 # Check: the lumped masses add up to the bar's mass ρπR²L (per component).
 
 # %%
 velocity_bcs = [(0, facet_tags.find(tags["axis"])),      # v_r = 0 on the axis
                 (1, facet_tags.find(tags["bottom"]))]    # v_z = 0 on the wall
-solver = ExplicitDynamics(mesh, kin, material, rho, velocity_bcs, element=m.element)
+solver = ExplicitDynamics(mesh, kin, material, rho, velocity_bcs, element=problem.mesh.element)
 qmap = solver.qmap
 mass_fe = COMM.allreduce(solver.mass.reshape(-1, 2)[: solver.n_own // 2, 1].sum())
-mass_exact = rho * np.pi * m.radius ** 2 * m.length
+mass_exact = rho * np.pi * R ** 2 * L
 say(f"spaces: u {solver.V.ufl_element()}, tau {qmap.QT.ufl_element().family()} "
     f"({qmap.nq} points per cell); dofs {solver.dofs_global}")
 say(f"mass: lumped {mass_fe:.10e} t, rho pi R^2 L {mass_exact:.10e} t")
@@ -144,7 +151,7 @@ def on_row(s, t):
 
 
 t0 = time.perf_counter()
-stats = solver.run(end_time, dt_safety=scene.solver.dt_safety, rows=41 if args.coarse else 161,
+stats = solver.run(end_time, dt_safety=problem.analysis.dt_safety, rows=41 if args.coarse else 161,
                    on_row=on_row, progress=4)
 xdmf.close()
 wall = time.perf_counter() - t0
@@ -156,14 +163,14 @@ wall = time.perf_counter() - t0
 
 # %%
 e = solver.energies()
-ke0_exact = 0.5 * rho * np.pi * m.radius ** 2 * (m.length - 0.5 * m.length / m.cells_axial) * v0 ** 2
+ke0_exact = 0.5 * rho * np.pi * R ** 2 * (L - 0.5 * L / p["cells_axial"]) * v0 ** 2
 results = write_summary(args.out, dict(
-    final_length_mm=hist["length"][-1], final_radius_mm=hist["radius"][-1], max_eqps=solver.max_eqps(),
+    length_mm=hist["length"][-1], radius_mm=hist["radius"][-1], max_eqps=solver.max_eqps(),
     initial_kinetic_energy_J=solver.KE0 * 1e-3, initial_kinetic_energy_exact_J=ke0_exact * 1e-3,
     plastic_dissipation_J=e["plastic"] * 1e-3, energy_balance_error=e["balance_error"],
     lumped_mass_t=mass_fe, exact_mass_t=mass_exact, steps=stats["steps"], wall_time_s=wall,
     cells=solver.cells_global, coarse=args.coarse))
-for k in ("final_length_mm", "final_radius_mm", "max_eqps", "initial_kinetic_energy_J",
+for k in ("length_mm", "radius_mm", "max_eqps", "initial_kinetic_energy_J",
           "initial_kinetic_energy_exact_J", "energy_balance_error", "steps", "wall_time_s"):
     say(f"{k:32s} {results[k]:.10g}")
 
@@ -172,8 +179,8 @@ polys, vals = gather_cells(solver.V, solver.u.x.array, eqps_cells)
 if COMM.rank == 0:
     fig, (ax0, ax1) = figure(2)
     draw_cells(ax0, polys, vals, "equivalent plastic strain", cmap="inferno")
-    ax0.plot([-m.radius, -m.radius, m.radius, m.radius], [0, m.length, m.length, 0], "c--", lw=0.8)
-    ax0.set(xlabel="r [mm]", ylabel="z [mm]", title=f"t = {ld.end_time_us:g} us")
+    ax0.plot([-R, -R, R, R], [0, L, L, 0], "c--", lw=0.8)
+    ax0.set(xlabel="r [mm]", ylabel="z [mm]", title=f"t = {end_time * 1e6:g} us")
     ax1.plot(hist["t_us"], hist["length"], label="length [mm]")
     ax1.plot(hist["t_us"], hist["radius"], label="impact-face radius [mm]")
     ax1.plot(hist["t_us"], np.array(hist["kinetic"]) / 10, label="kinetic energy [10 J]")

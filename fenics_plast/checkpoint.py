@@ -62,7 +62,7 @@ __all__ = ["FORMAT", "CheckpointError", "Checkpointer", "Keyed", "KeyedTable", "
            "DIRNAME"]
 
 #: version of the checkpoint layout; bump it when a solver's state_dict changes meaning
-FORMAT = 1
+FORMAT = 2
 DIRNAME = "checkpoint"
 #: output keys that do not change the numbers (a resumed run may change them)
 FREE_KEYS = {("scene", "description"), ("output", "xdmf"), ("output", "every"), ("output", "plots"),
@@ -323,9 +323,9 @@ def check_resume(out_dir: str | os.PathLike, scene, ranks: int) -> dict:
         why = _compatibility(m, ranks, scene_settings(scene), out_dir)
         if why:
             raise CheckpointError(why)
-        if m.get("kind") != scene.kind:
-            raise CheckpointError(f"{out_dir}: the checkpoint is of a {m.get('kind')!r} run, the scene is "
-                                  f"{scene.kind!r}")
+        if m.get("analysis") != scene.analysis.type:
+            raise CheckpointError(f"{out_dir}: the checkpoint is of a {m.get('analysis')!r} analysis, the scene's "
+                                  f"is {scene.analysis.type!r}")
         return m
     raise CheckpointError(f"{out_dir}: no readable checkpoint manifest in {ckdir}")
 
@@ -341,21 +341,21 @@ class Checkpointer:
     out_dir : the run's output directory.
     comm : mpi4py communicator or None (serial).
     settings : :func:`scene_settings` of the scene (stored, and compared on resume).
-    kind : the scene kind.
+    analysis : the analysis type (static | explicit), checked on resume.
     every : checkpoint every ``every`` steps (explicit) or increments (static); 0: never save.
     resume : this run continues from the newest complete checkpoint (:meth:`load`).
     output : the run's :class:`fenics_plast.output.RunOutput` (its history rows are saved and, on
         resume, written back to history.csv), or None.
     """
 
-    def __init__(self, out_dir, comm, settings: dict, kind: str, every: int = 0, resume: bool = False,
+    def __init__(self, out_dir, comm, settings: dict, analysis: str, every: int = 0, resume: bool = False,
                  output=None):
         self.dir = Path(out_dir) / DIRNAME
         self.comm = comm
         self.rank = 0 if comm is None else comm.rank
         self.size = 1 if comm is None else comm.size
         self.settings = settings
-        self.kind = kind
+        self.analysis = analysis
         self.every = int(every)
         self.resuming = bool(resume)
         self.output = output
@@ -374,20 +374,6 @@ class Checkpointer:
         self._barrier()
         if output is not None:
             output.checkpointer = self
-
-    @classmethod
-    def for_run(cls, scene, output, comm=None):
-        """The run's checkpointer (``output.checkpoint_every`` of the scene; resume if the output was
-        opened with ``resume=True``), or None when ``output`` is None or there is nothing to do."""
-        if output is None:
-            return None
-        comm = comm if comm is not None else output.comm
-        out = scene.sections.get("output")
-        every = int(out.get("checkpoint_every", 0) or 0) if out is not None else 0
-        resume = bool(getattr(output, "resume", False))
-        ck = cls(output.out_dir, comm, scene_settings(scene), scene.kind, every=every, resume=resume,
-                 output=output)
-        return ck if (every > 0 or resume) else None
 
     # -- MPI helpers -------------------------------------------------------------------------
     def _barrier(self):
@@ -433,7 +419,7 @@ class Checkpointer:
             self._kill()
         path = self.dir / f"ckpt_{counter:09d}.json"
         if self.rank == 0:
-            manifest = dict(format=FORMAT, kind=self.kind, counter=counter, ranks=self.size, files=files,
+            manifest = dict(format=FORMAT, analysis=self.analysis, counter=counter, ranks=self.size, files=files,
                             written_unix=time.time(), settings=self.settings, state=meta,
                             history_rows=self.output.history_rows if self.output is not None else None)
             write_atomic(path, json.dumps(manifest, default=_json_default).encode("utf-8"))

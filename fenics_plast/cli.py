@@ -1,8 +1,7 @@
 """Command line: ``fenics-plast run | point | keys | study | plot``.
 
 Exit status: 0 success; 1 the run failed (summary.json still written, with ``converged: false``
-and ``error``); 2 invalid scene file, bad arguments or a runner that cannot be imported (nothing
-written).
+and ``error``); 2 invalid scene file or bad arguments (nothing written).
 """
 from __future__ import annotations
 
@@ -16,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .scene import SceneError, keys_markdown, load_any, load_scene
+from .keys_doc import keys_markdown
+from .problem import SceneError, load_problem
 
 EXIT_OK, EXIT_RUN_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -50,26 +50,12 @@ def _say(msg: str) -> None:
 
 def cmd_run(args) -> int:
     try:
-        scene = load_any(args.scene, args.set or ())
+        problem = load_problem(args.scene, args.set or ())
     except SceneError as e:
         _error(str(e))
         return EXIT_USAGE
 
-    kind = scene.analysis.type if hasattr(scene, "tables") else scene.kind
-    if hasattr(scene, "tables"):
-        from .runner import run as runner
-    else:
-        from .scenes import RunnerNotFound, get_runner
-        try:
-            runner = get_runner(scene.kind)
-        except RunnerNotFound as e:
-            _error(str(e))
-            return EXIT_USAGE
-        except ImportError as e:
-            _error(f"cannot import the runner for scene kind {scene.kind!r}: {e}")
-            return EXIT_USAGE
-
-    out_dir = Path(args.out) if args.out else Path("results") / scene.name
+    out_dir = Path(args.out) if args.out else Path("results") / problem.name
     resume = getattr(args, "resume", None)
     if resume:
         if args.out and Path(args.out).resolve() != Path(resume).resolve():
@@ -86,38 +72,35 @@ def cmd_run(args) -> int:
 
     if resume:
         try:
-            manifest = check_resume(out_dir, scene, comm.size)
+            manifest = check_resume(out_dir, problem, comm.size)
         except CheckpointError as e:
             _error(str(e))
             return EXIT_USAGE
         _say(f"fenics-plast: resuming {out_dir} from checkpoint {manifest['counter']}")
 
-    if hasattr(scene, "tables"):       # the mesh's groups are checked before anything is written
-        from .runner import read_mesh
-        try:
-            mesh_data = read_mesh(scene, comm)
-        except SceneError as e:
-            _error(str(e))
-            return EXIT_USAGE
-        general_runner = runner
-        runner = lambda scene, output: general_runner(scene, output, mesh_data)   # noqa: E731
+    from .runner import read_mesh, run
+    try:                               # the mesh's groups are checked before anything is written
+        mesh_data = read_mesh(problem, comm)
+    except SceneError as e:
+        _error(str(e))
+        return EXIT_USAGE
     output = RunOutput(out_dir, comm, resume=bool(resume))
-    _say(f"fenics-plast: scene {scene.name!r} ({kind}; physics: "
-         f"{', '.join(scene.active_physics) or 'elastic'}) on {comm.size} rank(s) -> {out_dir}")
+    _say(f"fenics-plast: scene {problem.name!r} ({problem.analysis.type}; physics: "
+         f"{', '.join(problem.active_physics) or 'elastic'}) on {comm.size} rank(s) -> {out_dir}")
 
     summary = {
-        "scene": scene.name,
-        "kind": kind,
-        "scene_file": str(scene.path),
-        "overrides": list(scene.overrides),
-        "active_physics": scene.active_physics,
+        "scene": problem.name,
+        "analysis": problem.analysis.type,
+        "scene_file": str(problem.path),
+        "overrides": list(problem.overrides),
+        "active_physics": problem.active_physics,
         "mpi_ranks": comm.size,
     }
     t0 = time.perf_counter()
     status = EXIT_OK
     try:
         try:
-            results = runner(scene, output)
+            results = run(problem, output, mesh_data)
         finally:
             output.end_progress()       # the bar's line ends before any error message
         if results is None:
@@ -126,7 +109,7 @@ def cmd_run(args) -> int:
         summary.setdefault("converged", True)
         if not summary["converged"]:
             status = EXIT_RUN_FAILED
-            _error(f"run of {scene.name!r} did not converge")
+            _error(f"run of {problem.name!r} did not converge")
     except SceneError as e:            # found while setting up (e.g. a symmetry group that is not straight)
         status = EXIT_USAGE
         summary.update(converged=False, error=str(e))
@@ -149,12 +132,12 @@ def cmd_run(args) -> int:
         summary.update(converged=False, error=f"{type(e).__name__}: {e}")
         if comm.rank == 0:
             traceback.print_exc()
-        _error(f"run of {scene.name!r} crashed: {type(e).__name__}: {e}")
+        _error(f"run of {problem.name!r} crashed: {type(e).__name__}: {e}")
     summary["wall_time_s"] = time.perf_counter() - t0
     ckpt = output.checkpointer
     if ckpt is not None:
         summary.update(ckpt.summary())
-    summary["scene_settings"] = scene.to_dict()
+    summary["scene_settings"] = problem.to_dict()
     path = output.finish(summary)
     if ckpt is not None and status == EXIT_OK:
         ckpt.clear()            # after summary.json: a kill in between leaves a resumable run
@@ -221,9 +204,16 @@ def _csv_cell(v):
 
 def cmd_point(args) -> int:
     try:
-        scene = load_scene(args.scene, args.set or ())
+        problem = load_problem(args.scene, args.set or ())
     except SceneError as e:
         _error(str(e))
+        return EXIT_USAGE
+    names = list(problem.materials)
+    name = args.material if args.material is not None else (names[0] if len(names) == 1 else None)
+    if name not in problem.materials:
+        _error(f"{problem.path}: " + (f"--material {args.material!r} is not a material of the scene"
+                                      if args.material is not None else "the scene has several materials")
+               + f": choose one with --material ({', '.join(names)})")
         return EXIT_USAGE
     if args.path in ("uniaxial", "shear") and args.to is None:
         _error(f"--path {args.path} needs --to VALUE (log strain for uniaxial, shear gamma for shear)")
@@ -241,15 +231,10 @@ def cmd_point(args) -> int:
         except (OSError, ValueError) as e:
             _error(str(e))
             return EXIT_USAGE
-    try:
-        from .material import Material
-        from .material import point
-    except ImportError as e:
-        _error(f"the material package is not available: {e}")
-        return EXIT_USAGE
-
     from .errors import RunError
-    material = Material.from_scene(scene.material)
+    from .material import point
+    from .runner import material_of
+    material = material_of(problem.materials[name])
     try:
         if args.path == "uniaxial":
             result = point.uniaxial_stress(material, args.to, args.steps)
@@ -272,7 +257,7 @@ def cmd_point(args) -> int:
         # the driver may prepend the undeformed state (F = I) as row 0: its t is left empty
         tcol = np.array([""] * (n - len(t)) + [repr(float(x)) for x in t], dtype=object)
         cols = {"t": tcol, **cols}
-    out = Path(args.out) if args.out else Path("results") / scene.name / f"point_{args.path}.csv"
+    out = Path(args.out) if args.out else Path("results") / problem.name / f"point_{args.path}.csv"
     out.parent.mkdir(parents=True, exist_ok=True)
     with open(out, "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
@@ -288,9 +273,9 @@ def cmd_point(args) -> int:
 
 
 def cmd_plot(args) -> int:
-    from .plots import PlotError, draw
+    from .plots import PlotError, draw_declared
     try:
-        paths = draw(args.dir)
+        paths = draw_declared(args.dir)
     except PlotError as e:
         _error(str(e))
         return EXIT_USAGE
@@ -328,7 +313,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("scene", help="scene file (TOML)")
     r.add_argument("--out", help="output directory (default results/<scene name>)")
     r.add_argument("--set", action="append", metavar="KEY=VALUE",
-                   help="override a scene key by dotted path, e.g. --set material.nu=0.3 (repeatable)")
+                   help="override a scene key by dotted path, e.g. --set contact.punch.friction=0.15 "
+                        "(repeatable)")
     r.add_argument("--resume", metavar="DIR",
                    help="continue the killed run whose output directory is DIR from its newest complete "
                         "checkpoint (same scene file, --set options and number of MPI ranks); output "
@@ -337,7 +323,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     q = sub.add_parser("point", help="drive the material of a scene at one material point",
                        description="Material-point driver: stress-strain paths without a mesh.")
-    q.add_argument("scene", help="scene file (TOML); only [material] is used")
+    q.add_argument("scene", help="scene file (TOML); only its [materials] are used")
+    q.add_argument("--material", help="which [materials.<name>] (default: the scene's only material)")
     q.add_argument("--path", required=True, choices=("uniaxial", "shear", "table"),
                    help="uniaxial stress to log strain --to; simple shear to gamma --to; "
                         "or a table of deformation gradients (--table)")
@@ -352,8 +339,8 @@ def build_parser() -> argparse.ArgumentParser:
     k.set_defaults(func=cmd_keys)
 
     pl = sub.add_parser("plot", help="redraw the PNG plots of a results folder",
-                        description="Redraws the scene kind's PNGs in DIR from its history.csv (and other "
-                                    "CSV files), reading the kind from summary.json.")
+                        description="Redraws the figures the scene declares ([plots]) in DIR from its "
+                                    "history.csv and profile CSV files (the scene settings are in summary.json).")
     pl.add_argument("dir", help="results folder of `fenics-plast run` (summary.json, history.csv)")
     pl.set_defaults(func=cmd_plot)
 

@@ -1,6 +1,6 @@
 """Exceptions shared between runners, solvers and the CLI.
 
-``SceneError`` (an invalid scene file) lives in :mod:`fenics_plast.scene`.
+``SceneError`` (an invalid scene file) lives in :mod:`fenics_plast.problem`.
 """
 
 

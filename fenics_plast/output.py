@@ -56,7 +56,6 @@ class RunOutput:
     * ``log(msg)``: a progress line on stdout, rank 0 only (through the progress bar if one is on).
     * ``progress(total, label, ...)``: start the run's :class:`fenics_plast.progress.Progress`
       (rank 0 prints); ``end_progress()`` (also done by ``finish``) ends it.
-    * ``draw_plots(kind, ...)``: the scene kind's PNGs from history.csv (:mod:`fenics_plast.plots`).
     """
 
     def __init__(self, out_dir: str | os.PathLike, comm=None, resume: bool = False):
@@ -194,22 +193,6 @@ class RunOutput:
                 for i in range(n):
                     w.writerow([_cell(c[i]) for c in cols.values()])
         return path
-
-    # -- plots ---------------------------------------------------------------------------------
-    def draw_plots(self, kind: str, title: str | None = None, results: Mapping[str, Any] | None = None):
-        """The PNGs of scene kind ``kind`` from the files in out_dir; ``results``: the run's results
-        (reference lines). Rank 0 draws and returns the paths; other ranks return []. A plot that
-        fails is reported with ``log`` and does not fail the run (no rank-local raise)."""
-        if not self.is_root:
-            return []
-        from .plots import draw
-        if self._hist_file is not None:
-            self._hist_file.flush()
-        try:
-            return draw(self.out_dir, kind, title=title, summary=results)
-        except Exception as e:  # noqa: BLE001 - plots are a by-product; the run's results stand
-            self.log(f"warning: plots of {self.out_dir} not drawn: {type(e).__name__}: {e}")
-            return []
 
     # -- the end -------------------------------------------------------------------------------
     def finish(self, summary: Mapping[str, Any]) -> Path:

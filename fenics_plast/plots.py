@@ -1,12 +1,11 @@
-"""The PNG plots of every scene kind, drawn from the CSV files of a results folder.
+"""The PNG figures a scene declares in ``[plots]``, drawn from the CSV files of a results folder.
 
-One table, :data:`FIGURES`, says which figures a scene kind has and which columns they read; the
-runners (through :meth:`fenics_plast.output.RunOutput.draw_plots`, after the run) and
-``fenics-plast plot DIR`` both call :func:`draw`, so both draw the same figures.
+The runner (after the run) and ``fenics-plast plot DIR`` both call :func:`draw_declared`, so both
+draw the same figures; :func:`declared_figures` turns the scene's ``[plots]`` tables into:
 
 * :class:`Lines`: curves ``y`` against ``x`` from a CSV of the folder (history.csv by default),
-  optionally one curve per value of a ``group`` column, and horizontal reference lines from
-  summary keys.
+  optionally one curve per value of a ``group`` column (a profile at each step end), and
+  horizontal lines at the published references of the plotted outputs.
 * :class:`Cells`: the deformed mesh (one quadrilateral per CSV row: columns x1..y4 in mm, cyclic
   order) coloured by a cell value; written by the runner with :func:`cells_table`.
 
@@ -24,11 +23,11 @@ from typing import Any, Mapping
 
 import numpy as np
 
-__all__ = ["FIGURES", "Lines", "Cells", "PlotError", "draw", "read_csv", "cells_table"]
+__all__ = ["Lines", "Cells", "PlotError", "draw_declared", "declared_figures", "read_csv", "cells_table"]
 
 
 class PlotError(ValueError):
-    """A results folder that cannot be plotted (missing files or columns, unknown kind)."""
+    """A results folder that cannot be plotted (missing files or columns, no scene settings)."""
 
 
 @dataclass(frozen=True)
@@ -41,10 +40,9 @@ class Lines:
     ylabel: str
     title: str
     source: str = "history.csv"
-    group: str | None = None          # one curve per distinct value of this column (label: value + unit)
-    group_unit: str = ""
-    hlines: Mapping[str, str] = field(default_factory=dict)   # label -> summary.json key
-    note: str = ""                    # added to the title, formatted with the summary ("mu = {friction:g}")
+    group: str | None = None          # one curve per distinct value of this column
+    group_label: str = "{:g}"         # legend label of a group value
+    hlines: Mapping[str, float] = field(default_factory=dict)   # label -> value (references)
 
 
 @dataclass(frozen=True)
@@ -58,39 +56,6 @@ class Cells:
     mirror: bool = False              # also draw x -> -x (axisymmetric section about the axis)
     xlabel: str = "r [mm]"
     ylabel: str = "z [mm]"
-
-
-FIGURES: dict[str, list] = {
-    "bar_tension": [
-        Lines("force_elongation", "elongation_mm", {"force": "force_kN"},
-              "elongation [mm]", "force [kN]", "Round bar in tension: force"),
-        Lines("neck_radius", "elongation_mm", {"neck radius": "neck_radius_mm"},
-              "elongation [mm]", "smallest radius [mm]", "Round bar in tension: neck radius"),
-    ],
-    "thick_cylinder": [
-        Lines("pressure_displacement", "inner_displacement_mm", {"computed": "pressure_MPa"},
-              "inner radial displacement [mm]", "internal pressure [MPa]", "Thick-walled cylinder: internal pressure",
-              hlines={"small-strain limit pressure": "analytic_limit_pressure_MPa"}),
-    ],
-    "punch_stretching": [
-        Lines("punch_force", "punch_displacement_mm", {"punch force": "punch_force_kN"},
-              "punch displacement [mm]", "punch force [kN]", "Hemispherical punch: force",
-              note="mu = {friction:g}, {contact_law}"),
-        Lines("thickness_strain", "r0_mm", {"": "thickness_strain"},
-              "initial radius r0 [mm]", "thickness strain ln(t/t0)", "Hemispherical punch: thickness strain",
-              source="thickness_strain.csv", group="travel_mm", group_unit="mm travel",
-              note="mu = {friction:g}, {contact_law}"),
-    ],
-    "taylor_bar": [
-        Lines("energies", "time_us", {"kinetic": "kinetic_energy_J", "elastic": "elastic_energy_J",
-                                      "plastic dissipation": "plastic_dissipation_J"},
-              "time [us]", "energy [J]", "Taylor bar: energies"),
-        Lines("shape", "time_us", {"length [mm]": "length_mm", "impact-face radius [mm]": "radius_mm"},
-              "time [us]", "mm", "Taylor bar: length and impact-face radius"),
-        Cells("final_shape", "eqps", "equivalent plastic strain", "Taylor bar: final shape (cell-mean eqps)",
-              source="final_shape.csv", mirror=True),
-    ],
-}
 
 
 # ----------------------------------------------------------------------------------------------
@@ -133,37 +98,7 @@ def _read_summary(out_dir: Path) -> dict:
 # drawing
 
 
-def draw(out_dir: str | Path, kind: str | None = None, title: str | None = None,
-         summary: Mapping[str, Any] | None = None, render: bool = True) -> list[Path]:
-    """Draw the figures of scene kind ``kind`` into ``out_dir``; with ``kind=None`` the kind, title
-    and reference values come from the folder's summary.json (``fenics-plast plot``).
-
-    title : prefix of every figure's title (default: summary's ``scene``).
-    summary : results used for reference lines (summary.json's when kind is None).
-    render : False returns the paths without drawing (MPI ranks other than 0).
-    Returns the PNG paths written. Raises :class:`PlotError` for a folder without history.csv,
-    without a kind, of an unknown kind, or with a missing column.
-    """
-    out_dir = Path(out_dir)
-    if not out_dir.is_dir():
-        raise PlotError(f"{out_dir}: no such directory")
-    if summary is None and kind is None:
-        summary = _read_summary(out_dir)
-    summary = dict(summary or {})
-    if kind is None and isinstance(summary.get("scene_settings"), dict) and "analysis" in summary["scene_settings"]:
-        return draw_declared(out_dir, title=title, render=render)      # a scene of the general format
-    kind = kind or summary.get("kind")
-    if not kind:
-        raise PlotError(f"{out_dir}/summary.json has no 'kind'")
-    if kind not in FIGURES:
-        raise PlotError(f"no plots defined for scene kind {kind!r} (known: {', '.join(FIGURES)})")
-    if not (out_dir / "history.csv").exists():
-        raise PlotError(f"{out_dir}: no history.csv (not a results folder of `fenics-plast run`)")
-    title = title if title is not None else summary.get("scene")
-    return _draw_figures(out_dir, FIGURES[kind], title, summary, render)
-
-
-def _draw_figures(out_dir: Path, figures, title, summary, render) -> list[Path]:
+def _draw_figures(out_dir: Path, figures, title, render) -> list[Path]:
     """Draw each figure whose CSV is in ``out_dir`` (a missing column is a PlotError)."""
     tables: dict[str, dict[str, np.ndarray]] = {}
     paths = []
@@ -182,21 +117,13 @@ def _draw_figures(out_dir: Path, figures, title, summary, render) -> list[Path]:
                             f"(columns: {', '.join(data)})")
         path = out_dir / f"{fig.name}.png"
         if render:
-            full_title = fig.title + (f"\n{title}" if title else "") + _note(fig, summary)
+            full_title = fig.title + (f"\n{title}" if title else "")
             if isinstance(fig, Lines):
-                _draw_lines(path, fig, data, summary, full_title)
+                _draw_lines(path, fig, data, full_title)
             else:
                 _draw_cells(path, fig, data, full_title)
         paths.append(path)
     return paths
-
-
-def _note(fig, summary) -> str:
-    note = getattr(fig, "note", "")
-    try:
-        return f" ({note.format(**summary)})" if note else ""
-    except (KeyError, ValueError, TypeError):     # summary without those keys: no note
-        return ""
 
 
 def _figure(size=(6.0, 4.2)):
@@ -207,7 +134,7 @@ def _figure(size=(6.0, 4.2)):
     return fig
 
 
-def _draw_lines(path: Path, spec: Lines, data, summary, title) -> None:
+def _draw_lines(path: Path, spec: Lines, data, title) -> None:
     fig = _figure()
     ax = fig.add_subplot()
     x = data[spec.x]
@@ -218,15 +145,14 @@ def _draw_lines(path: Path, spec: Lines, data, summary, title) -> None:
         for v in [v for v in dict.fromkeys(g.tolist()) if math.isfinite(v)]:
             sel = g == v
             for label, col in spec.ys.items():
-                lab = f"{v:g} {spec.group_unit}" + (f": {label}" if label else "")
-                ax.plot(x[sel], data[col][sel], style, label=lab.strip())
+                lab = spec.group_label.format(v) + (f": {label}" if label else "")
+                ax.plot(x[sel], data[col][sel], style, label=lab)
                 n += 1
     else:
         for label, col in spec.ys.items():
             ax.plot(x, data[col], style, label=label)
             n += 1
-    for label, key in spec.hlines.items():
-        v = summary.get(key)
+    for label, v in spec.hlines.items():
         if isinstance(v, (int, float)) and math.isfinite(v):
             ax.axhline(v, color="k", ls="--", lw=1.0, label=f"{label} ({v:.4g})")
             n += 1
@@ -306,20 +232,30 @@ def cells_table(V, positions, cell_values, value_name: str) -> dict[str, np.ndar
 # figures declared by a scene ([plots.<name>])
 
 
-def declared_figures(settings: Mapping[str, Any]) -> list:
-    """The figures of a scene's ``[plots]`` tables; ``settings`` is the scene as a dict (summary.json's
-    ``scene_settings``): plots, outputs and mesh.geometry are read."""
+def declared_figures(settings: Mapping[str, Any], references: Mapping[str, Any] | None = None) -> list:
+    """The figures of a scene's ``[plots]`` tables. ``settings``: the scene as a dict (summary.json's
+    ``scene_settings``; plots and mesh.geometry are read); ``references``: summary.json's
+    ``references`` ({column: {value, source}}), drawn as horizontal lines on the plots of their
+    columns (the column itself or its max_/min_ summary)."""
     figs = []
+    references = references or {}
     axisym = (settings.get("mesh") or {}).get("geometry") == "axisymmetric"
     for name, p in (settings.get("plots") or {}).items():
         title = p.get("title") or name.replace("_", " ")
         if p["type"] == "history":
+            hlines = {}
+            for c in p["y"]:
+                for key in (c, f"max_{c}", f"min_{c}"):
+                    ref = references.get(key)
+                    if isinstance(ref, Mapping) and ref.get("value") is not None:
+                        hlines[f"{ref.get('source') or 'reference'}"[:80]] = float(ref["value"])
             figs.append(Lines(name, p["x"], {c: c for c in p["y"]}, xlabel=p["x"],
-                              ylabel=", ".join(p["y"]) if len(p["y"]) == 1 else "", title=title))
+                              ylabel=", ".join(p["y"]) if len(p["y"]) == 1 else "", title=title, hlines=hlines))
         elif p["type"] == "profile":
             out = p["output"]
             figs.append(Lines(name, "s0_mm", {"": "value"}, xlabel="reference position along the group [mm]",
-                              ylabel=f"{out} = ln(t/t0)", title=title, source=f"{out}.csv", group="time"))
+                              ylabel=f"{out} = ln(t/t0)", title=title, source=f"{out}.csv", group="time",
+                              group_label="t = {:g}"))
         else:
             figs.append(Cells(name, "eqps", "equivalent plastic strain", title, "final_shape.csv", mirror=axisym,
                               xlabel="r [mm]" if axisym else "x [mm]", ylabel="z [mm]" if axisym else "y [mm]"))
@@ -327,17 +263,22 @@ def declared_figures(settings: Mapping[str, Any]) -> list:
 
 
 def draw_declared(out_dir: str | Path, settings: Mapping[str, Any] | None = None, title: str | None = None,
-                  render: bool = True) -> list[Path]:
+                  references: Mapping[str, Any] | None = None, render: bool = True) -> list[Path]:
     """Draw the scene's declared figures into ``out_dir`` from its CSV files; ``settings=None``
-    reads them from the folder's summary.json (``fenics-plast plot DIR``)."""
+    reads the settings, title and references from the folder's summary.json (``fenics-plast plot DIR``).
+    Returns the PNG paths; raises :class:`PlotError` for a folder that cannot be plotted."""
     out_dir = Path(out_dir)
     if not out_dir.is_dir():
         raise PlotError(f"{out_dir}: no such directory")
-    summary = {}
     if settings is None:
         summary = _read_summary(out_dir)
         settings = summary.get("scene_settings")
-        if not isinstance(settings, dict):
-            raise PlotError(f"{out_dir}/summary.json has no scene_settings")
-    title = title if title is not None else (summary.get("scene") or (settings.get("scene") or {}).get("name"))
-    return _draw_figures(out_dir, declared_figures(settings), title, summary, render)
+        if not isinstance(settings, dict) or "analysis" not in settings:
+            raise PlotError(f"{out_dir}/summary.json has no scene settings of a scene file (written by an "
+                            f"older fenics-plast?)")
+        title = title if title is not None else summary.get("scene")
+        references = references if references is not None else summary.get("references")
+    title = title if title is not None else (settings.get("scene") or {}).get("name")
+    if not (out_dir / "history.csv").exists():
+        raise PlotError(f"{out_dir}: no history.csv (not a results folder of `fenics-plast run`)")
+    return _draw_figures(out_dir, declared_figures(settings, references), title, render)

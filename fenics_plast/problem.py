@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
 
-from fenics_plast.expressions import ExpressionError, parse_value
+from fenics_plast.expressions import ExpressionError, parse_expression, parse_value
 
 __all__ = ["SceneError", "Problem", "Section", "load_problem", "parse_problem", "SCHEMA", "REQUIRED",
            "OPTIONAL", "COMPONENTS"]
@@ -289,9 +289,11 @@ SCHEMA: dict[str, Table] = {
                             "nearest `point`; extent: largest or smallest current coordinate of a group (or "
                             "the body); field: largest or smallest value of a field over a region (or the body); "
                             "energy: one of the energies; thickness: ln(t/t0) between two facing groups along "
-                            "the first (a profile, written to <name>.csv at every step end).",
+                            "the first (a profile, written to <name>.csv at every step end); expression: a "
+                            "value computed from other outputs (its column is the output's name as written: put "
+                            "the unit in the name, e.g. pressure_MPa).",
                             choices=("reaction", "tool_force", "tool_displacement", "displacement", "position", "extent", "field",
-                                     "energy", "thickness")),
+                                     "energy", "thickness", "expression")),
             "group": Key("str", OPTIONAL, "Facet group (extent: absent = the whole body).",
                          when={"quantity": ("reaction", "extent", "thickness")}),
             "opposite": Key("str", REQUIRED, "The facing group (thickness).", when={"quantity": ("thickness",)}),
@@ -312,6 +314,14 @@ SCHEMA: dict[str, Table] = {
                           when={"quantity": ("energy",)}),
             "unit": Key("str", "kN", "Force unit of the column.", choices=_FORCE_UNITS,
                         when={"quantity": ("reaction", "tool_force")}),
+            "expression": Key("str", REQUIRED, "An expression (see [boundary] values) of t and of the names "
+                              "of other one-column outputs declared before it, each in its column's unit.",
+                              when={"quantity": ("expression",)}),
+            "scale": Key("float", 1.0, "Factor applied to the measured value: e.g. 2 for the elongation of a "
+                         "half model, 4 for the force on a quarter model.",
+                         when={"quantity": ("reaction", "tool_force", "tool_displacement", "displacement")}),
+            "at_max_of": Key("str", OPTIONAL, "Name of another one-column output: summary.json also gets this "
+                             "output's value where that one is largest (<column>_at_max_<its column>)."),
             "summary": Key("strs", ["final"], "What goes into summary.json: final, max, min (max adds "
                            "max_<column> and, for static runs, the pseudo-time of the maximum)."),
             "key": Key("bool", False, "A key result: `fenics-plast study` reports its error."),
@@ -758,6 +768,10 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
             v.fail(f"{d}.type = 'axis' needs mesh.geometry = 'axisymmetric'")
         comps = b.get("components")
         if comps is not None:
+            for c in comps:
+                if c not in COMPONENTS:
+                    v.fail(f"{d}.components = {list(comps)}: {c!r} is not a component: must be one of "
+                           f"{', '.join(COMPONENTS)}")
             if len(set(COMPONENTS[c] for c in comps)) != len(comps):
                 v.fail(f"{d}.components = {list(comps)} names a component twice")
             val = b.get("value")
@@ -776,6 +790,10 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
     for n, c in t["contact"].items():
         if c.tool not in tools:
             v.fail(f"contact.{n}.tool = {c.tool!r} is not a tool: tools are {', '.join(tools) or 'none'}")
+    column_count = {n: (0 if o.quantity == "thickness" else 5 if o.quantity == "energy" and o.energy == "all"
+                        else 1) for n, o in t["outputs"].items()}
+    # expressions may name the one-column outputs declared before them; at_max_of any one-column one
+    single_columns = [n for n, o in t["outputs"].items() if column_count[n] == 1 and o.quantity != "expression"]
     for n, o in t["outputs"].items():
         d = f"outputs.{n}"
         if o.quantity in ("tool_force", "tool_displacement") and o.tool not in tools:
@@ -789,6 +807,18 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
                 v.fail(f"{d}.summary = {list(o.summary)}: entries must be final, max or min")
         if o.quantity == "energy" and not explicit:
             v.fail(f"{d}: energies are recorded in explicit analyses only")
+        if o.quantity == "expression":
+            try:
+                parse_expression(o.expression, f"{d}.expression", symbols=("t",) + tuple(single_columns))
+            except ExpressionError as e:
+                v.fail(str(e))
+        if o.at_max_of is not None and (column_count.get(o.at_max_of) != 1 or o.at_max_of == n
+                                        or column_count[n] != 1):
+            ones = [m for m, c in column_count.items() if c == 1 and m != n]
+            v.fail(f"{d}.at_max_of = {o.at_max_of!r}: must name another one-column output (and this output "
+                   f"must have one column); one-column outputs: {', '.join(ones) or 'none'}")
+        if o.quantity == "expression":
+            single_columns.append(n)
     for n, p in t["plots"].items():
         if p.type == "profile" and (p.output not in t["outputs"] or t["outputs"][p.output].quantity != "thickness"):
             v.fail(f"plots.{n}.output = {p.output!r} is not a thickness output")
@@ -811,22 +841,46 @@ def _parse_override(text: str, where: str) -> tuple[list[str], Any]:
                          f"analysis.rtol")
     try:
         parsed = tomllib.loads(f"v = {value.strip()}")["v"]
-    except tomllib.TOMLDecodeError:
+    except (ValueError, RecursionError):     # not TOML (TOMLDecodeError is a ValueError): a string
         parsed = value.strip()
     return parts, parsed
 
 
 def apply_overrides(raw: dict, overrides: Iterable[str], where: str) -> dict:
+    """Apply ``--set`` texts ``a.b.c=value`` to the raw TOML dict. A part ``*`` stands for every
+    table at that level (``contact.*.friction=0.15`` sets the friction of every contact pair)."""
     for text in overrides:
         parts, value = _parse_override(text, where)
-        d = raw
+        targets = [raw]
         for i, p in enumerate(parts[:-1]):
-            nxt = d.setdefault(p, {})
-            if not isinstance(nxt, dict):
-                raise SceneError(f"{where}: --set {text!r}: {'.'.join(parts[:i + 1])} is not a table")
-            d = nxt
-        d[parts[-1]] = value
+            nxt = []
+            for d in targets:
+                if p == "*":
+                    subs = [v for v in d.values() if isinstance(v, dict)]
+                    if not subs:
+                        raise SceneError(f"{where}: --set {text!r}: {'.'.join(parts[:i]) or 'the scene'} has "
+                                         f"no tables for '*' to stand for")
+                    nxt += subs
+                    continue
+                sub = d.setdefault(p, {})
+                if not isinstance(sub, dict):
+                    raise SceneError(f"{where}: --set {text!r}: {'.'.join(parts[:i + 1])} is not a table")
+                nxt.append(sub)
+            targets = nxt
+        for d in targets:
+            d[parts[-1]] = value
     return raw
+
+
+def _check_integers(raw, where: str, path: str = "") -> None:
+    """Refuse integers outside the 64-bit range anywhere in the raw TOML (they overflow when read as
+    numbers): a SceneError naming the dotted key."""
+    items = raw.items() if isinstance(raw, dict) else enumerate(raw) if isinstance(raw, list) else ()
+    for k, v in items:
+        key = f"{path}[{k}]" if isinstance(k, int) else (f"{path}.{k}" if path else str(k))
+        if isinstance(v, int) and not isinstance(v, bool) and abs(v) >= 2 ** 63:
+            raise SceneError(f"{where}: {key}: an integer of {v.bit_length()} bits is out of range (|n| < 2^63)")
+        _check_integers(v, where, key)
 
 
 def parse_with(validate, text: str, path: str | Path = "<string>", overrides: Iterable[str] = ()):
@@ -838,9 +892,14 @@ def parse_with(validate, text: str, path: str | Path = "<string>", overrides: It
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise SceneError(f"{where}: TOML syntax error: {e}") from None
+    except ValueError as e:             # an integer of more than 4300 digits (Python's conversion limit)
+        raise SceneError(f"{where}: an integer is too long to read: {str(e).split(';')[0]}") from None
+    except RecursionError:
+        raise SceneError(f"{where}: the file nests too deeply") from None
     overrides = tuple(overrides)
     apply_overrides(raw, overrides, where)
     try:
+        _check_integers(raw, where)
         return validate(raw, where, path, overrides)
     except SceneError as e:
         msg = str(e)
@@ -879,5 +938,5 @@ def is_general(text: str) -> bool:
     """A scene file of the general format has an [analysis] table (the old kind files do not)."""
     try:
         return "analysis" in tomllib.loads(text)
-    except tomllib.TOMLDecodeError:
+    except (ValueError, RecursionError):        # TOMLDecodeError, a huge integer, deep nesting
         return False

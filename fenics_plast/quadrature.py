@@ -6,7 +6,8 @@ quadrature points of the owned cells (one compiled ``fem.Expression``), runs
 tau (and the spatial tangent a) into quadrature Functions used by the forms. The tangent is stored as a 9x9 tensor per point,
 a[3i+j, 3k+l] = a_ijkl (basix 0.5 has no rank-4 tensor elements); ``a_values`` is (n,3,3,3,3).
 The trial state is kept until ``commit()``; nothing is needed to restore since every update
-starts from the committed state.
+starts from the committed state. Points are numbered cell-major over the owned cells (point
+p = c nq + q of owned cell c), the numbering a ``MaterialRegions`` (several materials) relies on.
 
 Never write a quadrature Function to XDMF (segfaults in dolfinx 0.5.2): use ``cell_mean``.
 """
@@ -41,6 +42,9 @@ class QuadratureMap:
         self.n_owned = imap.size_local
         self.cells = np.arange(self.n_owned, dtype=np.int32)
         self.n = self.n_owned * self.nq          # owned quadrature points
+        n_cells = getattr(material, "n_cells", self.n_owned)    # MaterialRegions: cells it was built for
+        if n_cells != self.n_owned:
+            raise ValueError(f"the material's regions cover {n_cells} cells, the mesh has {self.n_owned} owned cells")
 
         kw = dict(degree=degree, quad_scheme="default")
         self.QT = fem.FunctionSpace(mesh, ufl.TensorElement("Quadrature", cell, shape=(3, 3), **kw))

@@ -16,6 +16,7 @@ import numpy as np
 from dolfinx import fem
 from mpi4py import MPI
 
+from fenics_plast.expressions import parse_expression
 from fenics_plast.problem import COMPONENTS
 from fenics_plast.quadrature import von_mises
 
@@ -39,6 +40,8 @@ def column_names(name: str, spec) -> list[str]:
         if spec.energy == "all":
             return [ENERGY_COLUMNS[e] for e in ENERGIES]
         return [ENERGY_COLUMNS[spec.energy]]
+    if q == "expression":
+        return [name]
     return []          # thickness: a profile, no history column
 
 
@@ -77,7 +80,11 @@ class Quantities:
         self.times: list[float] = []
         self.profiles: dict[str, list[tuple[float, np.ndarray, np.ndarray]]] = {}
         self._nodes = {}
+        self._expressions = {}       # name -> parsed expression of t and earlier one-column outputs
         for name, o in outputs.items():
+            if o.quantity == "expression":
+                symbols = ("t",) + tuple(n for n, p in outputs.items() if len(column_names(n, p)) == 1)
+                self._expressions[name] = parse_expression(o.expression, f"outputs.{name}.expression", symbols)
             if o.quantity in ("extent", "thickness") and o.group is not None:
                 self._nodes[name] = body.group_nodes(facet_tags, groups[o.group][1])
             if o.quantity == "thickness":
@@ -94,23 +101,27 @@ class Quantities:
         return np.array([i] if self.body.comm.rank == best[1] and len(X) else [], dtype=np.int64)
 
     # -- one output -------------------------------------------------------------------------
-    def value(self, name, o, time):
+    def value(self, name, o, time, row):
+        """The output's column value(s) at ``time``; ``row``: the columns measured so far in this row
+        (``{output name: value}`` of one-column outputs, read by expressions)."""
         b, comm = self.body, self.body.comm
         q = o.quantity
         if q == "reaction":
             f = b.reaction(self.reactions[(o.group, o.component)])
-            return [f / (1e3 if o.unit == "kN" else 1.0)]
+            return [o.scale * f / (1e3 if o.unit == "kN" else 1.0)]
         if q == "tool_force":
             f = b.tool_force(o.tool)[COMPONENTS[o.component]]
-            return [f / (1e3 if o.unit == "kN" else 1.0)]
+            return [o.scale * f / (1e3 if o.unit == "kN" else 1.0)]
         if q == "tool_displacement":
-            return [float(b.tool_translation(o.tool, time)[COMPONENTS[o.component]])]
+            return [o.scale * float(b.tool_translation(o.tool, time)[COMPONENTS[o.component]])]
+        if q == "expression":
+            return [float(self._expressions[name].evaluate(t=time, **row))]
         if q in ("displacement", "position"):
             nodes = self._nodes[name]
             c = COMPONENTS[o.component]
             x = b.positions()[nodes, c]
             if q == "displacement":
-                x = x - b.X[nodes, c]
+                x = o.scale * (x - b.X[nodes, c])
             return [comm.allreduce(float(x[0]) if len(x) else 0.0, op=MPI.SUM)]
         if q == "extent":
             x = b.positions()[: b.n_owned_nodes]
@@ -137,11 +148,14 @@ class Quantities:
 
     def row(self, time: float) -> dict[str, float]:
         """Measure every history output at ``time``; the values are also kept for the summary."""
-        out = {}
+        out, by_name = {}, {}
         for name, o in self.outputs.items():
-            for col, v in zip(column_names(name, o), self.value(name, o, time)):
+            cols = column_names(name, o)
+            for col, v in zip(cols, self.value(name, o, time, by_name)):
                 out[col] = float(v)
                 self.history.setdefault(col, []).append(float(v))
+            if len(cols) == 1:
+                by_name[name] = out[cols[0]]
         self.times.append(float(time))
         return out
 
@@ -211,14 +225,29 @@ class Quantities:
                         i = int(f(h))
                         res[f"{which}_{col}"] = h[i]
                         res[f"{time_label}_at_{which}_{col}"] = self.times[i]
+                if o.at_max_of is not None:
+                    other = column_names(o.at_max_of, self.outputs[o.at_max_of])[0]
+                    res[f"{col}_at_max_{other}"] = h[int(np.argmax(self.history[other]))]
         return res
 
     def study_keys(self) -> dict:
         """summary.json's key_results / info_results / references (read by `fenics-plast study`)."""
-        key, info, refs = [], [], {}
-        for name, o in self.outputs.items():
-            cols = column_names(name, o) if o.quantity != "thickness" else [f"min_{name}", f"{name}_at_start"]
-            (key if o.key else info).extend(cols)
-            if o.reference is not None and cols:
-                refs[cols[0]] = dict(value=o.reference, source=o.reference_source)
-        return dict(key_results=key, info_results=info, references=refs)
+        return study_keys(self.outputs)
+
+
+def study_keys(outputs: dict) -> dict:
+    """key_results / info_results (summary.json keys of the declared outputs, key ones first listed
+    in ``key_results``) and references ({summary key: {value, source}}) of ``outputs``."""
+    key, info, refs = [], [], {}
+    for name, o in outputs.items():
+        if o.quantity == "thickness":
+            cols = [f"min_{name}", f"{name}_at_start"]
+        else:       # the summary entries, in the order `summary` lists them
+            cols = [c if w == "final" else f"{w}_{c}" for c in column_names(name, o) for w in o.summary]
+            if o.at_max_of is not None:
+                cols.append(f"{column_names(name, o)[0]}_at_max_"
+                            f"{column_names(o.at_max_of, outputs[o.at_max_of])[0]}")
+        (key if o.key else info).extend(cols)
+        if o.reference is not None and cols:
+            refs[cols[0]] = dict(value=o.reference, source=o.reference_source)
+    return dict(key_results=key, info_results=info, references=refs)

@@ -22,7 +22,7 @@ from dolfinx import fem, io
 from mpi4py import MPI
 
 from fenics_plast.checkpoint import Checkpointer, scene_settings
-from fenics_plast.material import Hardening, Material
+from fenics_plast.material import Hardening, Material, MaterialRegions
 from fenics_plast.meshing import MeshError, mesh_from_file
 from fenics_plast.problem import COMPONENTS, SceneError
 
@@ -79,18 +79,67 @@ def read_mesh(problem, comm):
     for n, iv in problem.initial_velocity.items():
         for r in iv.regions or ():
             need(f"initial_velocity.{n}.regions", r, 2)
+    check_material_regions(problem, ct, groups, mesh)
     return mesh, ct, ft, groups
 
 
-def single_material(problem):
-    """The material of the body. Several materials must cover disjoint regions; this version
-    solves one material per problem and refuses more (clear message)."""
+def check_material_regions(problem, cell_tags, groups, mesh):
+    """Every cell in exactly one material (SceneError naming ``materials.<name>.regions``; collective).
+
+    A single material without ``regions`` fills the mesh. Otherwise a region listed by two materials
+    is refused, and so is a region of the mesh that no material lists (its cells would have no
+    material). Each cell of a Gmsh mesh lies in one physical surface, so this is a check on names."""
     mats = problem.materials
-    if len(mats) > 1:
-        raise SceneError(f"{problem.path}: materials: {len(mats)} materials given; several materials "
-                         f"per problem are not supported yet (one [materials.<name>] table)")
-    (name, spec), = mats.items()
-    return name, spec, material_of(spec)
+    if len(mats) == 1 and next(iter(mats.values())).regions is None:
+        return
+    owner: dict[str, str] = {}
+    for n, m in mats.items():
+        for r in m.regions or ():
+            if r in owner and owner[r] != n:
+                raise SceneError(f"{problem.path}: materials.{n}.regions: region {r!r} is also in "
+                                 f"materials.{owner[r]}.regions: a cell belongs to one material")
+            owner[r] = n
+    unclaimed = sorted(r for r, (d, _) in groups.items() if d == 2 and r not in owner)
+    if not unclaimed:
+        return
+    n_owned = mesh.topology.index_map(mesh.topology.dim).size_local
+    counts = [int((cell_tags.find(groups[r][1]) < n_owned).sum()) for r in unclaimed]
+    counts = mesh.comm.allreduce(np.array(counts), op=MPI.SUM)
+    what = ", ".join(f"{r!r} ({c} cells)" for r, c in zip(unclaimed, counts))
+    keys = " and ".join(f"materials.{n}.regions" for n in mats)
+    verb = "leaves" if len(mats) == 1 else "leave"
+    raise SceneError(f"{problem.path}: {keys} {verb} region(s) {what} without a material: every cell needs "
+                     f"one (add the region to a material's regions)")
+
+
+def body_material(problem, cell_tags, groups, n_owned):
+    """The body's material and density [tonne/mm^3] (None where the scene gives none).
+
+    One material: a :class:`Material` and its density (it fills the mesh, :func:`read_mesh` has
+    checked that). Several: a :class:`MaterialRegions` over the owned cells of their regions and the
+    list of their densities, in the scene's order."""
+    mats = problem.materials
+    if len(mats) == 1:
+        (spec,) = mats.values()
+        return material_of(spec), spec.density
+    regions = cell_regions(cell_tags, groups, n_owned)
+    parts = [(material_of(spec), np.concatenate([regions[r] for r in spec.regions])) for spec in mats.values()]
+    return MaterialRegions(parts, n_owned), [spec.density for spec in mats.values()]
+
+
+def contact_modulus(material, mesh, facet_tags, tag):
+    """Young's modulus [MPa] for a default contact penalty on the facets tagged ``tag``: the
+    material's; with several materials, the largest among the cells along those facets (collective)."""
+    if not isinstance(material, MaterialRegions):
+        return material.E
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    f2c = mesh.topology.connectivity(tdim - 1, tdim)
+    cells = np.array([c for f in facet_tags.find(tag) for c in f2c.links(f)], dtype=np.int64)
+    cells = cells[cells < material.n_cells]
+    moduli = np.array([m.E for m in material.materials])
+    E = mesh.comm.allreduce(float(moduli[material.cell_material[cells]].max()) if cells.size else 0.0, op=MPI.MAX)
+    return E if E > 0.0 else material.E
 
 
 def cell_regions(cell_tags, groups, n_owned):
@@ -107,8 +156,10 @@ def symmetry_component(V, facet_tags, tag, where):
     nodes = fem.locate_dofs_topological(V, V.mesh.topology.dim - 1, facet_tags.find(tag))
     X = V.tabulate_dof_coordinates()[nodes, :2]
     comm = V.mesh.comm
-    lo = comm.allreduce(X.min(axis=0) if len(X) else np.full(2, np.inf), op=MPI.MIN)
-    hi = comm.allreduce(X.max(axis=0) if len(X) else np.full(2, -np.inf), op=MPI.MAX)
+    lo = X.min(axis=0) if len(X) else np.full(2, np.inf)
+    hi = X.max(axis=0) if len(X) else np.full(2, -np.inf)
+    comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)        # buffer form: element-wise on arrays
+    comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
     span = hi - lo
     scale = max(span.max(), 1e-300)
     if span[0] <= 1e-9 * scale:
@@ -188,9 +239,11 @@ def draw_plots(problem, output):
     if not problem.output.plots or not output.is_root or not problem.plots:
         return
     from fenics_plast.plots import draw_declared
+    from fenics_plast.quantities import study_keys
     output.close_history()
     try:
-        draw_declared(output.out_dir, problem.to_dict(), title=problem.name)
+        draw_declared(output.out_dir, problem.to_dict(), title=problem.name,
+                      references=study_keys(problem.outputs)["references"])
     except Exception as e:  # noqa: BLE001 - plots are a by-product; the results stand
         output.log(f"warning: plots of {output.out_dir} not drawn: {type(e).__name__}: {e}")
 

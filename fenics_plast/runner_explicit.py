@@ -7,14 +7,17 @@ History rows are ``output.history_points`` equally spaced times (time_us + the d
 """
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 from dolfinx import fem
 
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.problem import M_S, SceneError
 from fenics_plast.quantities import Body, Quantities
-from fenics_plast.runner import (cell_regions, checkpointer, components_of, draw_plots, open_fields, read_mesh,
-                                 single_material, symmetry_component, tool_of, values_of, write_final_shape)
+from fenics_plast.runner import (body_material, cell_regions, checkpointer, components_of, contact_modulus,
+                                 draw_plots, open_fields, read_mesh, symmetry_component, tool_of, values_of,
+                                 write_final_shape)
 from fenics_plast.solvers.explicit import ExplicitDynamics
 
 US = 1e-6
@@ -49,15 +52,19 @@ def velocity_constraints(problem, V, ft, groups):
     return zero, moving, loads
 
 
-def run_explicit(problem, output, comm, mesh_data=None) -> dict:
+def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
+    """The explicit solver of ``problem`` with its constraints, loads, contact pairs and initial
+    velocity, ready to ``run``: a namespace of ``solver``, ``material``, ``tools`` (name -> tool),
+    ``pairs`` (contact name -> pair), ``body`` (:class:`Body`), mesh, cell_tags, facet_tags, groups.
+    ``log``: progress lines (None: quiet)."""
     mesh, ct, ft, groups = mesh_data if mesh_data is not None else read_mesh(problem, comm)
     ana = problem.analysis
-    _, mspec, material = single_material(problem)
+    material, density = body_material(problem, ct, groups, mesh.topology.index_map(mesh.topology.dim).size_local)
     kin = Kinematics(mesh, problem.mesh.geometry)
     V = fem.VectorFunctionSpace(mesh, ("Lagrange", 1))
     zero, moving, loads = velocity_constraints(problem, V, ft, groups)
-    solver = ExplicitDynamics(mesh, kin, material, mspec.density, zero, element=problem.mesh.element,
-                              log=output.log, internal_force=ana.internal_force)
+    solver = ExplicitDynamics(mesh, kin, material, density, zero, element=problem.mesh.element,
+                              log=log if log is not None else (lambda m: None), internal_force=ana.internal_force)
     for c, facets, kind, val, name in moving:
         dofs = fem.locate_dofs_topological(solver.V, mesh.topology.dim - 1, facets)
         f = (lambda v: (lambda t: float(v.evaluate(t=t / US))))(val)
@@ -82,7 +89,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
         for name, spec in problem.contact.items():
             tag = groups[spec.group][1]
             eps = spec.penalty if spec.penalty is not None else default_penalty(
-                material.E, contact_length_scale(mesh, ft, tag))
+                contact_modulus(material, mesh, ft, tag), contact_length_scale(mesh, ft, tag))
             pairs[name] = solver.add_contact(tools[spec.tool], ft, tag, penalty=eps, friction=spec.friction,
                                              law=spec.law, tangential_penalty=spec.tangential_penalty)
     velocity = np.zeros(2)
@@ -99,7 +106,15 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
     body = Body(comm, solver.V, solver._X, solver.nodal_positions, solver.qmap,
                 cell_regions(ct, groups, solver.qmap.n_owned), tool_force=tool_force,
                 energies=solver.energies, tool_translation=lambda tool, t: tools[tool].translation(t, use_ufl=False))
-    quantities = Quantities(problem.outputs, body, ft, groups)
+    return SimpleNamespace(solver=solver, material=material, tools=tools, pairs=pairs, body=body, mesh=mesh,
+                           cell_tags=ct, facet_tags=ft, groups=groups)
+
+
+def run_explicit(problem, output, comm, mesh_data=None) -> dict:
+    b = build_explicit(problem, comm, mesh_data, log=output.log)
+    solver, material, pairs, mesh = b.solver, b.material, b.pairs, b.mesh
+    ana = problem.analysis
+    quantities = Quantities(problem.outputs, b.body, b.facet_tags, b.groups)
     end_time = ana.end_time
     rows = int(problem.output.history_points)
     every = int(problem.output.every)
@@ -146,6 +161,14 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
                step_loop_time_s=stats["wall_s"], time_per_step_s=stats["time_per_step_s"],
                setup_time_s=solver.timings["setup_s"], cells=solver.cells_global, dofs=solver.dofs_global,
                converged=True)
+    if pairs:
+        # the contact terms of the balance (energy_balance_error includes them) and, per pair, the
+        # largest penetration of the run and the penalty's stable-step limit (collective calls)
+        res.update(contact_work_J=e["contact_work"] * 1e-3, contact_stored_J=e["contact_stored"] * 1e-3,
+                   tool_work_J=e["tool_work"] * 1e-3, dt_stable_contact_s=solver.contact.dt_stable)
+        for name, p in pairs.items():
+            res[f"{name}_max_penetration_mm"] = p.max_penetration_run()
+            res[f"{name}_penalty_N_mm3"] = p.penalty
     write_final_shape(problem, output, solver.V, solver.nodal_positions(), solver.qmap)
     draw_plots(problem, output)
     return res

@@ -7,6 +7,7 @@ there); without [steps] the run goes from t = 0 to 1 in ``analysis.increments`` 
 from __future__ import annotations
 
 import time
+from types import SimpleNamespace
 
 import numpy as np
 import ufl
@@ -16,8 +17,8 @@ from fenics_plast.kinematics import Kinematics
 from fenics_plast.problem import COMPONENTS, SceneError
 from fenics_plast.quadrature import von_mises
 from fenics_plast.quantities import Body, Quantities
-from fenics_plast.runner import (cell_regions, checkpointer, components_of, draw_plots, open_fields,
-                                 read_mesh, single_material, symmetry_component, tool_of, values_of,
+from fenics_plast.runner import (body_material, cell_regions, checkpointer, components_of, contact_modulus,
+                                 draw_plots, open_fields, read_mesh, symmetry_component, tool_of, values_of,
                                  write_final_shape)
 from fenics_plast.solvers.static import StaticSolver
 
@@ -98,25 +99,32 @@ def add_contact(problem, s, ft, groups, material, tools):
     for name, spec in problem.contact.items():
         tag = groups[spec.group][1]
         eps = spec.penalty if spec.penalty is not None else default_penalty(
-            material.E, contact_length_scale(s.mesh, ft, tag))
+            contact_modulus(material, s.mesh, ft, tag), contact_length_scale(s.mesh, ft, tag))
         pairs[name] = c.add_pair(tools[spec.tool], ft, tag, penalty=eps, friction=spec.friction, law=spec.law,
                                  tangential_penalty=spec.tangential_penalty)
     c.attach()
     return c, pairs
 
 
-def run_static(problem, output, comm, mesh_data=None) -> dict:
-    t_setup = time.perf_counter()
+def load_steps(problem) -> list[tuple[str, float, int, float]]:
+    """[(name, end pseudo-time, initial increments, largest increment)] of the static steps."""
+    ana = problem.analysis
+    return [(n, st.end, st.increments or ana.increments, st.max_increment or ana.max_increment)
+            for n, st in problem.steps.items()] or [("load", 1.0, ana.increments, ana.max_increment)]
+
+
+def build_static(problem, comm, mesh_data=None, log=None, progress=None) -> SimpleNamespace:
+    """The static solver of ``problem`` with its boundary conditions, loads and contact pairs, set
+    up and ready to ``run``: a namespace of ``solver``, ``material``, ``tools``, ``contact`` (the
+    contact set or None), ``pairs``, ``reactions`` ((group, component) -> dofs), ``body``
+    (:class:`Body`, on the collapsed displacement space), ``positions()`` (current node positions),
+    mesh, cell_tags, facet_tags, groups. ``log``, ``progress``: as for :class:`StaticSolver`."""
     mesh, ct, ft, groups = mesh_data if mesh_data is not None else read_mesh(problem, comm)
     ana = problem.analysis
-    _, mspec, material = single_material(problem)
+    material, _ = body_material(problem, ct, groups, mesh.topology.index_map(mesh.topology.dim).size_local)
     kin = Kinematics(mesh, problem.mesh.geometry)
     opts = dict(rtol=ana.rtol, atol=ana.atol, max_iterations=ana.max_iterations, linesearch=ana.linesearch)
-    steps = [(n, st.end, st.increments or ana.increments, st.max_increment or ana.max_increment)
-             for n, st in problem.steps.items()] or [("load", 1.0, ana.increments, ana.max_increment)]
-    t_end = steps[-1][1]
-    s = StaticSolver(kin, material, element=problem.mesh.element, log=output.log,
-                     progress=output.progress(t_end, problem.name, what="t"), **opts)
+    s = StaticSolver(kin, material, element=problem.mesh.element, log=log, progress=progress, **opts)
     constrained = apply_boundary(problem, s, ft, groups)
     tools = {n: tool_of(n, t) for n, t in problem.tools.items()}
     contact, pairs = add_contact(problem, s, ft, groups, material, tools)
@@ -138,7 +146,20 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
 
     body = Body(comm, Vc, X, positions, s.qmap, cell_regions(ct, groups, s.qmap.n_owned),
                 reaction=s.reaction, tool_force=tool_force, tool_translation=tool_translation)
-    quantities = Quantities(problem.outputs, body, ft, groups, reactions)
+    return SimpleNamespace(solver=s, material=material, tools=tools, contact=contact, pairs=pairs,
+                           reactions=reactions, body=body, positions=positions, Vc=Vc, mesh=mesh, cell_tags=ct,
+                           facet_tags=ft, groups=groups)
+
+
+def run_static(problem, output, comm, mesh_data=None) -> dict:
+    t_setup = time.perf_counter()
+    steps = load_steps(problem)
+    t_end = steps[-1][1]
+    b = build_static(problem, comm, mesh_data, log=output.log,
+                     progress=output.progress(t_end, problem.name, what="t"))
+    s, contact, pairs, mesh, positions, Vc = b.solver, b.contact, b.pairs, b.mesh, b.positions, b.Vc
+    ana = problem.analysis
+    quantities = Quantities(problem.outputs, b.body, b.facet_tags, b.groups, b.reactions)
     cells = mesh.topology.index_map(2).size_global
     output.log(f"{problem.name}: {cells} cells, {s.dofs} dofs, element {problem.mesh.element}, "
                f"physics {', '.join(problem.active_physics) or 'elastic'}, set-up {time.perf_counter() - t_setup:.1f} s")

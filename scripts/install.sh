@@ -10,7 +10,8 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 PKGS=(python3-dolfinx python3-petsc4py python3-mpi4py python3-gmsh python3-numba python3-numpy
       python3-matplotlib python3-pytest openmpi-bin
       python3-venv python3-setuptools python3-wheel        # venv + `pip install -e .` (bdist_wheel)
-      python3-nbclient python3-ipykernel python3-nbformat python3-yaml)   # last line: the demo notebook
+      python3-nbclient python3-ipykernel python3-nbformat python3-yaml     # the demo notebook
+      python3-hypothesis python3-tomli-w)   # tests/test_scene_fuzz.py: property-based fuzzing, TOML writer
 
 missing=()
 for p in "${PKGS[@]}"; do

@@ -36,13 +36,13 @@ PUNCH = "demos/punch_stretching.toml"
 #: name -> (scene file, study arguments). The order is the order they run in.
 STUDIES: dict[str, tuple[str, list[str]]] = {
     "taylor_mesh": (TAYLOR, ["--vary", "mesh.refine=1,2,4"]),
-    "taylor_dt": (TAYLOR, ["--vary", "solver.dt_safety=0.3,0.5,0.8,1.0"]),
-    "taylor_model": (TAYLOR, ["--vary", "material.model=isochoric,seed", "--vary", "mesh.refine=1,2"]),
+    "taylor_dt": (TAYLOR, ["--vary", "analysis.dt_safety=0.3,0.5,0.8,1.0"]),
+    "taylor_model": (TAYLOR, ["--vary", "materials.copper.model=isochoric,seed", "--vary", "mesh.refine=1,2"]),
     "punch_mesh": (PUNCH, ["--vary", "mesh.refine=1,2,3,4"]),
-    "punch_increment": (PUNCH, ["--vary", "solver.max_increment=0.05,0.025,0.0125,0.00625"]),
-    "punch_penalty": (PUNCH, ["--vary", "contact.penalty=2070,20700,207000"]),
-    "punch_friction_law": (PUNCH, ["--set", "contact.friction=0.15", "--vary", "contact.law=quasi-coulomb,coulomb"]),
-    "punch_model": (PUNCH, ["--vary", "material.model=isochoric,seed"]),
+    "punch_increment": (PUNCH, ["--vary", "analysis.max_increment=0.05,0.025,0.0125,0.00625"]),
+    "punch_penalty": (PUNCH, ["--vary", "contact.*.penalty=2070,20700,207000"]),
+    "punch_friction_law": (PUNCH, ["--set", "contact.*.friction=0.15", "--vary", "contact.*.law=quasi-coulomb,coulomb"]),
+    "punch_model": (PUNCH, ["--vary", "materials.aluminium.model=isochoric,seed"]),
 }
 
 

@@ -13,8 +13,9 @@ from mpi4py import MPI
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from fenics_plast.scene import load_scene  # noqa: E402
-from fenics_plast.scenes.taylor_bar import simulate  # noqa: E402
+from fenics_plast.problem import load_problem  # noqa: E402
+from fenics_plast.quantities import Quantities  # noqa: E402
+from fenics_plast.runner_explicit import build_explicit  # noqa: E402
 
 
 def main():
@@ -22,9 +23,14 @@ def main():
     end_us = float(sys.argv[2]) if len(sys.argv) > 2 else 5.0
     model = sys.argv[3] if len(sys.argv) > 3 else "isochoric"
     comm = MPI.COMM_WORLD
-    scene = load_scene(REPO / "demos" / "taylor_bar.toml",
-                       [f"loading.end_time_us={end_us}", f"material.model={model}", "output.history_points=3"])
-    res, s = simulate(scene, None, comm=comm, log=lambda m: None)
+    problem = load_problem(REPO / "demos" / "taylor_bar.toml",
+                           [f"analysis.end_time={end_us}", f"materials.copper.model={model}",
+                            "output.history_points=3"])
+    b = build_explicit(problem, comm)
+    s, ana = b.solver, problem.analysis
+    stats = s.run(ana.end_time, dt_safety=ana.dt_safety, steps=ana.time_steps,
+                  rows=problem.output.history_points, progress=0)
+    res = Quantities(problem.outputs, b.body, b.facet_tags, b.groups).row(end_us)
     e = s.energies()
     n_nodes = s.V.dofmap.index_map.size_local
     X = s._X[:n_nodes]
@@ -35,10 +41,10 @@ def main():
         X = np.concatenate(Xs)
         u = np.concatenate(us)
         order = np.lexsort((np.round(X[:, 0], 9), np.round(X[:, 1], 9)))
-        np.savez(out, X=X[order], u=u[order], final_length_mm=res["final_length_mm"],
-                 final_radius_mm=res["final_radius_mm"], max_eqps=res["max_eqps"], steps=res["steps"],
-                 kinetic=e["kinetic"], internal_work=e["internal_work"], elastic=e["elastic"],
-                 balance_error=e["balance_error"], ranks=comm.size)
+        np.savez(out, X=X[order], u=u[order], length_mm=res["length_mm"], radius_mm=res["radius_mm"],
+                 max_eqps=res["max_eqps"], steps=stats["steps"], kinetic=e["kinetic"],
+                 internal_work=e["internal_work"], elastic=e["elastic"], balance_error=e["balance_error"],
+                 ranks=comm.size)
 
 
 if __name__ == "__main__":

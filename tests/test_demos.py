@@ -24,7 +24,7 @@ from mpi4py import MPI
 ROOT = Path(__file__).resolve().parent.parent
 PY = sys.executable
 DEMOS = ROOT / "demos"
-KEY = {"taylor_bar": "final_radius_mm", "bar_tension": "max_force_kN", "punch_stretching": "final_punch_force_kN"}
+KEY = {"taylor_bar": "radius_mm", "bar_tension": "max_force_kN", "punch_stretching": "punch_force_kN"}
 
 pytestmark = pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="starts its own serial and mpirun processes")
 
@@ -82,8 +82,8 @@ def test_taylor_bar_demo(serial):
     assert s["energy_balance_error"] < 1e-2
     # 3 x 18 cells against the seed's 6 x 36 reference ranges (7.03-7.15 mm, 21.42-21.47 mm):
     # measured 6.936 mm and 21.52 mm
-    assert 6.8 < s["final_radius_mm"] < 7.15
-    assert 21.40 < s["final_length_mm"] < 21.65
+    assert 6.8 < s["radius_mm"] < 7.15
+    assert 21.40 < s["length_mm"] < 21.65
     assert 2.3 < s["max_eqps"] < 3.2
 
 
@@ -93,20 +93,20 @@ def test_bar_tension_demo(serial):
     # triaxial stress raises it): measured 77.16 kN vs 76.89 kN on 4 x 12 cells (fine mesh 77.11)
     rel = (s["max_force_kN"] - s["considere_force_kN"]) / s["considere_force_kN"]
     assert 0.0 < rel < 0.01
-    assert 4.0 < s["elongation_at_max_mm"] < 7.0          # fine mesh: 5.25 mm
-    assert s["final_neck_radius_mm"] < 0.6 * 6.413          # a neck has formed (fine mesh 2.33 mm)
-    assert s["final_force_kN"] < 0.7 * s["max_force_kN"]
+    assert 4.0 < s["elongation_mm_at_max_force_kN"] < 7.0   # fine mesh: 5.25 mm
+    assert s["neck_radius_mm"] < 0.6 * 6.413                # a neck has formed (fine mesh 2.33 mm)
+    assert s["force_kN"] < 0.7 * s["max_force_kN"]
 
 
 def test_punch_stretching_demo(serial):
     s = serial("punch_stretching")
-    assert s["friction"] == 0.15 and s["final_travel_mm"] == pytest.approx(20.0, rel=1e-12)
+    assert s["friction"] == 0.15 and s["punch_displacement_mm"] == pytest.approx(20.0, rel=1e-12)
     # fine mesh (60 x 2), mu = 0.15 at 20 mm: 25.66 kN (README); 20 x 1 cells: 26.46 kN
-    assert s["final_punch_force_kN"] == pytest.approx(25.66, rel=0.04)
+    assert s["punch_force_kN"] == pytest.approx(25.66, rel=0.04)
     assert s["max_penetration_mm"] < 0.01 * 1.0                # < 1 % of the thickness
     # friction never exceeds the Coulomb bound; here part of the contact zone sticks
     assert 0.0 < abs(s["punch_tangential_force_kN"]) <= 0.15 * s["punch_normal_force_kN"] * (1 + 1e-9)
-    assert s["min_thickness_strain"] < s["pole_thickness_strain"] < 0.0  # friction moves thinning off the pole
+    assert s["min_thickness_strain"] < s["thickness_strain_at_start"] < 0.0  # friction moves thinning off the pole
 
 
 # ----------------------------------------------------------------------------------------------

@@ -38,9 +38,8 @@ from petsc4py import PETSc
 from fenics_plast.material import Hardening, Material
 from fenics_plast.material.point import deformation_table, uniaxial_stress
 from fenics_plast.quadrature import von_mises
-from fenics_plast.scenes.bar_tension import build as build_bar
-from fenics_plast.scenes.thick_cylinder import limit_pressure, solve as solve_ring
 from fenics_plast.solvers import static
+from static_cases import PUNCH_PENALTY, homogeneous_bar, limit_pressure, punch, solve_ring, top_force
 
 ROOT = Path(__file__).resolve().parent.parent
 COMM = MPI.COMM_WORLD
@@ -72,18 +71,18 @@ def test_nearly_incompressible_ring(nu):
     above atol = 1e-8 N, and both runs failed at the first increment. Now the stall is recognised at
     once: 21 Newton iterations for the 10 increments (19 at nu = 0.49)."""
     sy = 20.0
-    mat = Material(200e3, nu, Hardening("linear", yield_stress=sy, modulus=0.0), model="isochoric")
     # elastic: one increment to an inner displacement at ~40 % of the first-yield pressure
     delta = 3e-5
-    r = solve_ring(COMM, 1.0, 2.0, 6, 12, mat, delta=delta, increments=1, max_increment=1.0, verbose=False)
+    r = solve_ring(1.0, 2.0, 6, 12, nu=nu, yield_stress=sy, delta=delta, increments=1, max_increment=1.0)
     assert r["converged"], r.get("error")
+    mat = r["material"]
     p_el = r["history"]["pressure_MPa"][-1]
     p_first_yield = sy / math.sqrt(3.0) * (1 - 0.25)
     assert 0.2 * p_first_yield < p_el < 0.8 * p_first_yield
     assert p_el == pytest.approx(lame_ring_pressure(mat, 1.0, 2.0, delta), rel=5e-3)
     assert r["solver"].qmap.eqps.max() == 0.0
     # plastic: up to the limit load
-    r = solve_ring(COMM, 1.0, 2.0, 6, 12, mat, increments=10, max_increment=0.1, verbose=False)
+    r = solve_ring(1.0, 2.0, 6, 12, nu=nu, yield_stress=sy, increments=10, max_increment=0.1)
     assert r["converged"], r.get("error")
     h = r["history"]
     assert finite(h["pressure_MPa"], h["inner_displacement_mm"], r["solver"].qmap.tau_values)
@@ -104,8 +103,7 @@ def _force_icntl14(monkeypatch, value):
 
 
 def _ring_49999(**kw):
-    mat = Material(200e3, 0.49999, Hardening("linear", yield_stress=20.0, modulus=0.0), model="isochoric")
-    return solve_ring(COMM, 1.0, 2.0, 6, 12, mat, increments=4, max_increment=0.25, verbose=False, **kw)
+    return solve_ring(1.0, 2.0, 6, 12, nu=0.49999, yield_stress=20.0, increments=4, max_increment=0.25, **kw)
 
 
 @pytest.mark.skipif(not SERIAL, reason="MUMPS workspace estimates differ between partitions")
@@ -142,19 +140,18 @@ def test_mumps_workspace_gives_up_with_a_clear_message(monkeypatch):
 # perfect plasticity and equivalent plastic strain beyond 3
 
 
-def homogeneous_cylinder(material, log_strain, increments, cells=(2, 3), R=1.5, L=4.0):
-    """Axisymmetric cylinder (radius R, half length L, ends free to slide radially) stretched
-    homogeneously to the axial log strain; returns (solver, stretches, end forces [N])."""
-    s, info = build_bar(COMM, R, L, cells[0], cells[1], 0.0, material, element="q1p0",
-                        solver_options=dict(rtol=1e-11, atol=1e-9), verbose=False)
+def homogeneous_cylinder(hardening, log_strain, increments, model="isochoric", cells=(2, 3), R=1.5, L=4.0):
+    """Axisymmetric cylinder (radius R, half length L, ends free to slide radially; tests/scenes/bar.toml,
+    E = 200 GPa, nu = 0.3, ``hardening``: its [materials.steel.hardening] keys, None: elastic) stretched
+    homogeneously to the axial log strain; returns (solver, stretches, end forces [N], build)."""
     d = L * (math.exp(log_strain) - 1.0)
-    for bc, g, g0 in s._bcs:
-        g0 *= d
+    b = homogeneous_bar(d, hardening, model=model, cells=cells, radius=R, half_length=L)
+    s = b.solver
     forces = []
     s.run(increments=increments, max_increment=1.0 / increments,
-          callback=lambda sv: forces.append(sv.reaction(info["top_dofs"])) and False)
+          callback=lambda sv: forces.append(top_force(b)) and False)
     lam = np.array([rec["load_factor"] for rec in s.increments])
-    return s, 1.0 + lam * d / L, np.array(forces), info
+    return s, 1.0 + lam * d / L, np.array(forces), b
 
 
 def test_perfectly_plastic_compression_beyond_eqps_3():
@@ -163,8 +160,7 @@ def test_perfectly_plastic_compression_beyond_eqps_3():
     plastic increment (Kirchhoff stress on the yield surface, exact for the homogeneous state),
     von Mises(tau) = sigma_y at every point, eqps 3.19875 everywhere, no NaN."""
     sy, R = 250.0, 1.5
-    mat = Material(200e3, 0.3, Hardening("linear", yield_stress=sy, modulus=0.0), model="isochoric")
-    s, stretch, F, _ = homogeneous_cylinder(mat, -3.2, 20, R=R)
+    s, stretch, F, _ = homogeneous_cylinder(dict(law="linear", yield_stress=sy, modulus=0.0), -3.2, 20, R=R)
     assert stretch[-1] == pytest.approx(math.exp(-3.2))
     assert finite(F, s.qmap.tau_values, s.qmap.eqps)
     eq = s.qmap.eqps
@@ -222,9 +218,9 @@ def test_huge_yield_stress_is_hyperelastic(model):
     its force equals the elastic-only material (no hardening law) to 1e-12 and the closed form
     tau(l) A0 / l to 1e-8; the radius follows the closed-form lateral stretch."""
     E, nu, R = 200e3, 0.3, 1.5
-    huge = Material(E, nu, Hardening("linear", yield_stress=1e12), model=model)
-    s, stretch, F, info = homogeneous_cylinder(huge, math.log(1.5), 5, R=R)
-    s0, stretch0, F0, _ = homogeneous_cylinder(Material(E, nu, None, model=model), math.log(1.5), 5, R=R)
+    huge = dict(law="linear", yield_stress=1e12)
+    s, stretch, F, _ = homogeneous_cylinder(huge, math.log(1.5), 5, model=model, R=R)
+    s0, stretch0, F0, _ = homogeneous_cylinder(None, math.log(1.5), 5, model=model, R=R)
     assert finite(F, s.qmap.tau_values)
     assert s.qmap.eqps.max() == 0.0
     np.testing.assert_array_equal(stretch, stretch0)
@@ -243,13 +239,10 @@ def test_huge_yield_stress_is_hyperelastic(model):
 
 
 def punch_run(penalty_factor, travel=8.0):
-    """Coarse frictionless punch (30 x 1 cells, aluminium, 8 mm of travel); returns (force [N],
-    max penetration [mm], increments, solver)."""
-    from fenics_plast.contact import default_penalty
-    from fenics_plast.scenes.punch_stretching import build
-    mat = Material(69e3, 0.3, Hardening("swift", K=589.0, eps0=1e-4, n=0.216), model="isochoric")
-    s, c, info = build(COMM, material=mat, cells_radial=30, cells_thickness=1, travel=travel, friction=0.0,
-                       penalty=default_penalty(69e3, 1.0) * penalty_factor, verbose=False)
+    """Coarse frictionless punch (demos/punch_stretching.toml on 30 x 1 cells, aluminium, 8 mm of
+    travel); returns (force [N], max penetration [mm], increments, solver)."""
+    b = punch(friction=0.0, penalty=PUNCH_PENALTY * penalty_factor, travel=travel)
+    s, c = b.solver, b.contact
     pen = []
 
     def cb(sol):
@@ -259,7 +252,7 @@ def punch_run(penalty_factor, travel=8.0):
 
     s.run(increments=8, max_increment=0.125, callback=cb)
     assert s.lam_converged == pytest.approx(1.0)
-    return info["punch"].force()[1], max(pen), len(s.increments), s
+    return b.pairs["punch"].force()[1], max(pen), len(s.increments), s
 
 
 def check_penalty_sweep(factors):
@@ -298,16 +291,17 @@ def test_punch_penalty_every_decade():
 # zero impact velocity
 
 
-AT_REST_ENERGIES = ("initial_kinetic_energy_J", "final_kinetic_energy_J", "elastic_energy_J",
+AT_REST_ENERGIES = ("kinetic_energy_J", "max_kinetic_energy_J", "elastic_energy_J", "max_elastic_energy_J",
                     "plastic_dissipation_J", "external_work_J", "energy_balance_error")
+AT_REST_SETS = ["initial_velocity.bar.value=[0.0, 0.0]", "analysis.end_time=2", "output.history_points=3"]
 
 
 def check_at_rest(res):
     """The Taylor bar with no impact velocity stays as it was: length 32.4 mm, radius 3.2 mm,
-    max eqps 0, every energy 0, nothing non-finite."""
+    max eqps 0, every energy 0 (the largest kinetic energy, at t = 0, too), nothing non-finite."""
     assert res["converged"] is True
-    assert res["final_length_mm"] == pytest.approx(32.4, abs=1e-12)
-    assert res["final_radius_mm"] == pytest.approx(3.2, abs=1e-12)
+    assert res["length_mm"] == pytest.approx(32.4, abs=1e-12)
+    assert res["radius_mm"] == pytest.approx(3.2, abs=1e-12)
     assert res["max_eqps"] == 0.0
     for k in AT_REST_ENERGIES:
         assert res[k] == 0.0, k
@@ -315,28 +309,36 @@ def check_at_rest(res):
 
 
 def test_taylor_bar_at_rest_solver():
-    """Zero impact velocity at the solver level (the scene file refuses velocity = 0, so the value is
-    set after validation): the explicit solver runs the 2 us and the bar stays at rest."""
-    from fenics_plast.scene import load_scene
-    from fenics_plast.scenes.taylor_bar import simulate
-    scene = load_scene(ROOT / "demos" / "taylor_bar.toml", ["loading.end_time_us=2", "output.history_points=3"])
-    scene.loading._set("velocity", 0.0)
-    res, solver = simulate(scene, None, log=lambda m: None)
+    """Zero impact velocity at the solver level: demos/taylor_bar.toml with initial velocity (0, 0),
+    built in-process (runner_explicit.build_explicit); the explicit solver runs the 2 us and the bar
+    stays at rest. The declared outputs are measured as the runner does (Quantities)."""
+    from fenics_plast.problem import load_problem
+    from fenics_plast.quantities import Quantities
+    from fenics_plast.runner_explicit import build_explicit
+    problem = load_problem(ROOT / "demos" / "taylor_bar.toml", AT_REST_SETS)
+    b = build_explicit(problem, COMM)
+    solver = b.solver
+    q = Quantities(problem.outputs, b.body, b.facet_tags, b.groups)
+    stats = solver.run(problem.analysis.end_time, dt_safety=problem.analysis.dt_safety, rows=3,
+                       on_row=lambda s, t: q.row(t * 1e6))
+    res = q.summary("time_us")
+    res.update(converged=True, steps=stats["steps"])
     check_at_rest(res)
+    assert len(q.times) == 3 and q.times[-1] == pytest.approx(2.0)
     assert res["steps"] > 10
     assert np.abs(solver.u.x.array).max() == 0.0
 
 
 @pytest.mark.skipif(not SERIAL, reason="tmp_path differs per rank")
 def test_taylor_bar_at_rest_cli(tmp_path):
-    """`fenics-plast run taylor_bar.toml --set loading.velocity=0`: exit status 0, the bar at rest in
-    summary.json (no NaN or null: see tests/conftest.py) and a finite history.csv."""
+    """`fenics-plast run taylor_bar.toml --set initial_velocity.bar.value=[0.0, 0.0]`: exit status 0,
+    the bar at rest in summary.json (no NaN or null: see tests/conftest.py) and a finite history.csv."""
     from fenics_plast import cli
     out = tmp_path / "out"
-    rc = cli.main(["run", str(ROOT / "demos" / "taylor_bar.toml"), "--out", str(out),
-                   "--set", "loading.velocity=0", "--set", "loading.end_time_us=2",
-                   "--set", "output.xdmf=false", "--set", "output.plots=false"])
-    assert rc == 0
+    args = ["run", str(ROOT / "demos" / "taylor_bar.toml"), "--out", str(out)]
+    for s in AT_REST_SETS + ["output.xdmf=false", "output.plots=false"]:
+        args += ["--set", s]
+    assert cli.main(args) == 0
     check_at_rest(json.loads((out / "summary.json").read_text()))
     hist = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
     assert finite(*(hist[n] for n in hist.dtype.names))

@@ -68,12 +68,13 @@ def test_fused_force_equals_ufl_residual(geometry, element, model):
 
 def test_taylor_run_same_with_either_route():
     """10 us of the Taylor bar (132 steps, plastic from the first steps): same displacements."""
-    from fenics_plast.scene import load_scene
-    from fenics_plast.scenes.taylor_bar import build
+    from fenics_plast.problem import load_problem
+    from fenics_plast.runner_explicit import build_explicit
     out = {}
     for route in ("fused", "ufl"):
-        scene = load_scene(REPO / "demos" / "taylor_bar.toml", [f"solver.internal_force={route}", "loading.end_time_us=10"])
-        s = build(scene, MPI.COMM_SELF, log=lambda m: None)
+        problem = load_problem(REPO / "demos" / "taylor_bar.toml",
+                               [f"analysis.internal_force={route}", "analysis.end_time=10"])
+        s = build_explicit(problem, MPI.COMM_SELF).solver
         s.run(10e-6, rows=2, progress=0)
         out[route] = (s.u.x.array.copy(), s.max_eqps(), s.step_count)
     uf, uu = out["fused"][0], out["ufl"][0]

@@ -1,13 +1,16 @@
 """The general scene format reproduces the shipped scenes' numbers.
 
-The references below were measured with the per-kind runners (fenics_plast/scenes/, commit 47b0e60,
-the last one before the general format) on demos/punch_stretching.toml and demos/taylor_bar.toml;
-the scene files of the general format in demos/general/ describe the same problems and must give
-the same numbers to 1e-8 relative (the issue's criterion), serially and on 2 MPI ranks.
+The references below were measured with the per-kind runners that the general format replaced
+(fenics_plast/scenes/, removed after commit 64d5201) on the old-format demos/punch_stretching.toml,
+demos/taylor_bar.toml, demos/bar_tension.toml and tests/scenes/ring.toml (at 8 x 16 cells, 20
+increments for the thick cylinder); the scene files of the general format in demos/ describe the
+same problems and must give the same numbers to 1e-8 relative (the issue's criterion), serially
+and on 2 MPI ranks.
 """
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -16,7 +19,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-GENERAL = ROOT / "demos" / "general"
+DEMOS = ROOT / "demos"
 FP = [sys.executable, "-m", "fenics_plast.cli"]
 
 #: per-kind runner, demos/punch_stretching.toml (mu = 0): summary values
@@ -59,18 +62,19 @@ def assert_close(summary, ref, rtol=1e-8):
 
 @pytest.mark.parametrize("np_ranks", [1, pytest.param(2, marks=pytest.mark.mpi)])
 def test_punch_reproduces_the_kind_runner(tmp_path, np_ranks):
-    s = run_scene(GENERAL / "punch_stretching.toml", tmp_path / "punch", np_ranks=np_ranks)
+    s = run_scene(DEMOS / "punch_stretching.toml", tmp_path / "punch", np_ranks=np_ranks)
     assert_close(s, PUNCH_MU0)
     for k, v in PUNCH_MU0_COUNTS.items():
         assert s[k] == v, k
-    assert s["key_results"] == ["punch_force_kN", "min_thickness_strain", "thickness_strain_at_start"]
+    assert s["key_results"] == ["max_punch_force_kN", "punch_force_kN", "min_thickness_strain",
+                                "thickness_strain_at_start"]
     assert (tmp_path / "punch" / "thickness_strain.csv").exists()
     assert (tmp_path / "punch" / "punch_force.png").exists()
 
 
 @pytest.mark.parametrize("mu", [0.15, pytest.param(0.3, marks=pytest.mark.slow)])
 def test_punch_with_friction_reproduces_the_kind_runner(tmp_path, mu):
-    s = run_scene(GENERAL / "punch_stretching.toml", tmp_path / "punch", f"contact.punch.friction={mu}",
+    s = run_scene(DEMOS / "punch_stretching.toml", tmp_path / "punch", f"contact.punch.friction={mu}",
                   f"contact.die.friction={mu}")
     ref, counts = PUNCH_FRICTION[mu]
     assert_close(s, ref)
@@ -85,7 +89,7 @@ TAYLOR = {"length_mm": 21.453719829605348, "radius_mm": 7.083304489612052, "max_
 
 @pytest.mark.parametrize("np_ranks", [1, pytest.param(2, marks=pytest.mark.mpi)])
 def test_taylor_bar_reproduces_the_kind_runner(tmp_path, np_ranks):
-    s = run_scene(GENERAL / "taylor_bar.toml", tmp_path / "taylor", np_ranks=np_ranks)
+    s = run_scene(DEMOS / "taylor_bar.toml", tmp_path / "taylor", np_ranks=np_ranks)
     assert_close(s, TAYLOR)
     assert s["steps"] == 9360
     assert s["energy_balance_error"] < 1e-3
@@ -94,9 +98,40 @@ def test_taylor_bar_reproduces_the_kind_runner(tmp_path, np_ranks):
         assert (tmp_path / "taylor" / png).exists(), png
 
 
+#: per-kind runner, old demos/bar_tension.toml (10 x 30 cells, Voce, 14 mm elongation)
+BAR = {"max_force_kN": 77.11368961757843, "elongation_mm_at_max_force_kN": 5.25, "elongation_mm": 14.0,
+       "min_neck_radius_mm": 2.3271273133701484}
+BAR_COUNTS = {"increments": 18, "newton_iterations": 121}
+#: per-kind runner, old tests/scenes/ring.toml with cells 8 x 16 and 20 increments
+#: (limit_pressure_MPa, final_pressure_MPa, final_inner_displacement_mm)
+RING = {"max_pressure_MPa": 198.75579632141051, "pressure_MPa": 196.8345706203064,
+        "inner_displacement_mm": 0.16887495373796557}
+RING_COUNTS = {"increments": 11, "newton_iterations": 27}
+
+
+@pytest.mark.parametrize("np_ranks", [1, pytest.param(2, marks=pytest.mark.mpi)])
+def test_bar_tension_reproduces_the_kind_runner(tmp_path, np_ranks):
+    s = run_scene(DEMOS / "bar_tension.toml", tmp_path / "bar", np_ranks=np_ranks)
+    assert_close(s, BAR)
+    for k, v in BAR_COUNTS.items():
+        assert s[k] == v, k
+    assert (tmp_path / "bar" / "force.png").exists()
+
+
+@pytest.mark.parametrize("np_ranks", [1, pytest.param(2, marks=pytest.mark.mpi)])
+def test_thick_cylinder_reproduces_the_kind_runner(tmp_path, np_ranks):
+    s = run_scene(DEMOS / "thick_cylinder.toml", tmp_path / "ring", np_ranks=np_ranks)
+    assert_close(s, RING)
+    for k, v in RING_COUNTS.items():
+        assert s[k] == v, k
+    # the small-strain limit pressure, within the discretisation error of 8 x 16 cells
+    assert s["references"]["max_pressure_MPa"]["value"] == pytest.approx(2 / 3 ** 0.5 * 250 * math.log(2), rel=1e-12)
+    assert s["max_pressure_MPa"] == pytest.approx(s["references"]["max_pressure_MPa"]["value"], rel=0.01)
+
+
 def test_bad_group_name_is_refused_before_anything_is_written(tmp_path):
     out = tmp_path / "bad"
-    p = subprocess.run(FP + ["run", str(GENERAL / "punch_stretching.toml"), "--out", str(out),
+    p = subprocess.run(FP + ["run", str(DEMOS / "punch_stretching.toml"), "--out", str(out),
                              "--set", "contact.die.group=nope"], capture_output=True, text=True, cwd=ROOT,
                        env=dict(os.environ, FENICS_PLAST_PROGRESS="off"))
     assert p.returncode == 2
@@ -107,7 +142,7 @@ def test_bad_group_name_is_refused_before_anything_is_written(tmp_path):
 def test_plot_and_study_read_the_general_format(tmp_path):
     """`fenics-plast plot` redraws the declared figures; `study` validates and runs a general scene."""
     out = tmp_path / "punch"
-    s = run_scene(GENERAL / "punch_stretching.toml", out, "analysis.max_increment=0.1", "steps.to_20mm.end=0.25",
+    s = run_scene(DEMOS / "punch_stretching.toml", out, "analysis.max_increment=0.1", "steps.to_20mm.end=0.25",
                   "steps.to_40mm.end=0.5")
     assert s["converged"]
     for png in out.glob("*.png"):
@@ -116,7 +151,7 @@ def test_plot_and_study_read_the_general_format(tmp_path):
     assert p.returncode == 0, p.stderr
     assert sorted(x.name for x in out.glob("*.png")) == ["punch_force.png", "thickness_strain.png"]
     study = tmp_path / "study"
-    p = subprocess.run(FP + ["study", str(GENERAL / "punch_stretching.toml"), "--vary", "contact.punch.friction=0,0.1",
+    p = subprocess.run(FP + ["study", str(DEMOS / "punch_stretching.toml"), "--vary", "contact.punch.friction=0,0.1",
                              "--set", "steps.to_20mm.end=0.25", "--set", "steps.to_40mm.end=0.5",
                              "--out", str(study)], capture_output=True, text=True, cwd=ROOT,
                        env=dict(os.environ, FENICS_PLAST_PROGRESS="off"))

@@ -186,13 +186,13 @@ RING = Path(__file__).resolve().parent / "scenes" / "ring.toml"    # small thick
 
 
 def test_static_run_reports_increments_and_newton_iterations(tmp_path, capsys, monkeypatch):
-    """The quasi-static solver drives the bar: plain lines (captured output is not a terminal)
+    """The quasi-static solver drives the ring: plain lines (captured output is not a terminal)
     whose last state agrees with summary.json."""
     import json
     from fenics_plast import cli
     monkeypatch.delenv("FENICS_PLAST_PROGRESS", raising=False)
-    assert cli.main(["run", str(RING), "--out", str(tmp_path / "out"), "--set", "mesh.cells_radial=3",
-                     "--set", "mesh.cells_circumferential=3", "--set", "output.plots=false"]) == 0
+    assert cli.main(["run", str(RING), "--out", str(tmp_path / "out"), "--set", "mesh.parameters.cells_radial=3",
+                     "--set", "mesh.parameters.cells_circumferential=3", "--set", "output.plots=false"]) == 0
     lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("ring ")]
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert lines and all("\r" not in ln for ln in lines)

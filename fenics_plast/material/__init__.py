@@ -4,7 +4,8 @@ isochoric variant.  Pure array code: no dolfinx, UFL or MPI here.
 >>> mat = Material(E=117e3, nu=0.35, hardening=Hardening("linear", yield_stress=400.0, modulus=100.0))
 >>> tau, binv, eqps, a = mat.update(Fu, binv_n, eqps_n)        # shapes (n,3,3), (n,3,3), (n,), (n,3,3,3,3)
 
-The equations live in :mod:`fenics_plast.material.kernels`.
+The equations live in :mod:`fenics_plast.material.kernels`. Several materials in one body (one per
+set of cells): :class:`~fenics_plast.material.regions.MaterialRegions`, same interface.
 """
 from __future__ import annotations
 
@@ -12,8 +13,9 @@ import numpy as np
 
 from . import kernels
 from .hardening import Hardening
+from .regions import MaterialRegions
 
-__all__ = ["Material", "Hardening", "MODELS"]
+__all__ = ["Material", "MaterialRegions", "Hardening", "MODELS"]
 
 MODELS = {"seed": kernels.SEED, "isochoric": kernels.ISOCHORIC}
 

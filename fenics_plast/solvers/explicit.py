@@ -27,6 +27,9 @@ prescribed motion, loads and contact see :mod:`fenics_plast.solvers.time_integra
   external forces (:meth:`~ExplicitDynamics.add_external_force`, dead tractions
   :meth:`~ExplicitDynamics.add_traction`) and penalty contact with friction against rigid tools
   (:meth:`~ExplicitDynamics.add_contact`, :mod:`fenics_plast.solvers.explicit_contact`).
+* Several materials (:class:`~fenics_plast.material.regions.MaterialRegions`, one density each):
+  the mass uses each cell's density, the stable step each cell's wave speed (min over cells of
+  h_c / c_c); one material keeps the plain path (h_min / c, a constant density).
 * Stable step: dt_stable = h_min / c with h the smallest edge or altitude of any deformed quad and
   c = sqrt((lambda + 2 mu) / rho) the dilatational wave speed, with contact pairs combined with
   the penalty springs' limit (explicit_contact.py); re-estimated every ``reestimate_every`` steps;
@@ -53,6 +56,7 @@ from petsc4py import PETSc
 from dolfinx.cpp.la import ScatterMode
 
 from fenics_plast.errors import RunError
+from fenics_plast.material import MaterialRegions
 from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 from fenics_plast.solvers import fused_force
 from fenics_plast.solvers import time_integration as ti
@@ -69,8 +73,9 @@ class ExplicitDynamics:
     Parameters
     ----------
     mesh, kin : dolfinx mesh and ``fenics_plast.kinematics.Kinematics``.
-    material : ``fenics_plast.material.Material`` (``update_into``, ``energy``, ``lame``).
-    density : tonne/mm^3.
+    material : ``fenics_plast.material.Material`` (``update_into``, ``energy``, ``wave_speed``,
+        ``kernel_args``) or ``MaterialRegions`` (several materials, one per set of cells).
+    density : tonne/mm^3; with a ``MaterialRegions``, one density per material (in its order).
     velocity_bcs : list of (component, facet indices): that velocity component is held at 0.
     element : "q1p0" (DG0 mean dilatation, F-bar) or "q1" (theta = None).
     internal_force : "fused" (one compiled pass: kinematics + material + force) or "ufl" (UFL
@@ -95,7 +100,9 @@ class ExplicitDynamics:
             raise ValueError("the explicit solver supports quadrilateral meshes only")
         self.internal_force_route = internal_force
         self.fused = internal_force == "fused"
-        self.mesh, self.kin, self.material, self.density = mesh, kin, material, float(density)
+        self.mesh, self.kin, self.material = mesh, kin, material
+        self.regions = isinstance(material, MaterialRegions)
+        self.density = np.asarray(density, dtype=float).reshape(-1) if self.regions else float(density)
         self.comm = mesh.comm
         self.element = element
         self.reestimate_every = int(reestimate_every)
@@ -124,7 +131,14 @@ class ExplicitDynamics:
         self._cell_dofs = np.ascontiguousarray(cell_nodes[:, _QUAD_CYCLE])   # cyclic order
         self._xbuf = np.empty_like(self._X)
         self._hbuf = np.empty(self.n_cells_own)
-        self.c = material.wave_speed(self.density)
+        if self.regions:
+            # per cell wave speed for the stable step; c: the fastest material (messages, round-off floor)
+            speeds = material.wave_speeds(self.density)
+            self._cell_c = material.per_cell(speeds)
+            self.c = float(speeds.max())
+        else:
+            self._cell_c = None
+            self.c = material.wave_speed(self.density)
         points, weights = fused_force.quadrature(kin.degree)        # the rule of kin.dx and QuadratureMap
         self.geometry = fused_force.CellGeometry(self._X[cell_nodes], points, weights, kin.axisymmetric)
 
@@ -138,7 +152,8 @@ class ExplicitDynamics:
 
         # lumped mass (row sums), weighted by kin.weight
         ones = fem.Constant(mesh, PETSc.ScalarType((1.0,) * self.bs))
-        M = fem_petsc.assemble_vector(fem.form(self.density * ufl.inner(ones, vt) * kin.weight * kin.dx))
+        rho = self._cell_density() if self.regions else self.density
+        M = fem_petsc.assemble_vector(fem.form(rho * ufl.inner(ones, vt) * kin.weight * kin.dx))
         M.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         self.mass = M.array.copy()
         M.destroy()
@@ -170,6 +185,15 @@ class ExplicitDynamics:
         self.drivers = ti.Drivers(self)
         self.timings["setup_s"] = time.perf_counter() - t0
 
+    def _cell_density(self):
+        """DG0 density of each cell [tonne/mm^3] (several materials)."""
+        D0 = fem.FunctionSpace(self.mesh, ("DG", 0))
+        rho = fem.Function(D0, name="density")
+        dofs = D0.dofmap.list.array.reshape(-1)[: self.n_cells_own]
+        rho.x.array[dofs] = self.material.per_cell(self.density)
+        rho.x.scatter_forward()
+        return rho
+
     def _setup_fused(self, kin):
         """Data of the compiled pass: reference geometry at the quadrature points, work arrays."""
         self.qmap = QuadratureMap(self.mesh, kin, self.material, None, degree=kin.degree, tangent=False)
@@ -184,8 +208,9 @@ class ExplicitDynamics:
         self.f = self._f_all[: self.n_own]
         g, q = self.geometry, self.qmap
         # the arguments of fused_force.internal_force: persistent arrays, updated in place
+        regions = self.material.point_layout(q.nq) if self.regions else None
         self._force_args = (self.u.x.array, self.u_n.x.array, self._cell_nodes, g.dNdX, g.N, g.Rinv, g.W,
-                            self.element == "q1p0", *self.material.kernel_args(), q.binv, q.eqps,
+                            self.element == "q1p0", *self.material.kernel_args(), regions, q.binv, q.eqps,
                             q.tau_values, self._Fu, self._Finv, self._factor, self.theta_cells, self._f_all)
 
     def _setup_ufl(self, kin, vt):
@@ -228,17 +253,28 @@ class ExplicitDynamics:
         self.v.x.scatter_forward()
 
     def stable_dt(self):
-        """h_min / c on the current (deformed) mesh, global minimum [s]; with contact pairs combined
+        """h_min / c on the current (deformed) mesh, global minimum [s] (several materials: the
+        minimum over the cells of h / c of the cell's material); with contact pairs combined
         with the smallest penalty-spring limit dt_c = min 2 sqrt(m_i / (eps A_i)) of the contact
         nodes as 1 / sqrt(1 / dt^2 + 1 / dt_c^2) (explicit_contact.py)."""
         np.add(self._X, self.u.x.array.reshape(-1, self.bs), out=self._xbuf)
         h = _quad_min_size(self._xbuf, self._cell_dofs, self._hbuf)
-        hloc = h.min() if h.size else np.inf
-        dt = self._reduce(hloc, MPI.MIN) / self.c
+        if self._cell_c is None:
+            hloc = h.min() if h.size else np.inf
+            dt = self._reduce(hloc, MPI.MIN) / self.c
+        else:
+            np.divide(h, self._cell_c, out=h)
+            dt = self._reduce(h.min() if h.size else np.inf, MPI.MIN)
         if not self.contact.pairs:
             return dt
         dtc = self.contact.dt_stable
         return 1.0 / math.sqrt(1.0 / dt ** 2 + 1.0 / dtc ** 2)
+
+    def _limit_text(self, dt):
+        """What sets the stable step dt [s], for messages."""
+        if self._cell_c is None:
+            return f"smallest element {dt * self.c:.4g} mm, wave speed {self.c / 1e3:.4g} m/s"
+        return f"smallest transit time h/c of a cell, wave speeds up to {self.c / 1e3:.4g} m/s"
 
     # -- drivers -------------------------------------------------------------------------------
     @property
@@ -559,9 +595,8 @@ class ExplicitDynamics:
             if dt_fixed > dt_stable0:
                 raise RunError(
                     f"time step end_time/steps = {dt_fixed:.4g} s ({int(steps)} steps) exceeds the stable "
-                    f"limit {dt_stable0:.4g} s (smallest element {dt_stable0 * self.c:.4g} mm, wave speed "
-                    f"{self.c / 1e3:.4g} m/s); use at least {math.ceil(end_time / dt_stable0)} steps "
-                    f"or drop solver.steps")
+                    f"limit {dt_stable0:.4g} s ({self._limit_text(dt_stable0)}); use at least "
+                    f"{math.ceil(end_time / dt_stable0)} steps or drop solver.steps")
         if self.KE0 is None:
             self.initialize()
         row_times = np.linspace(0.0, end_time, max(int(rows), 2))
@@ -627,7 +662,7 @@ class ExplicitDynamics:
                         raise RunError(
                             f"the fixed time step end_time/steps = {dt_fixed:.4g} s exceeds the stable limit "
                             f"{dt_stable:.4g} s of the deformed mesh at t = {self.t * 1e6:.4g} us (step "
-                            f"{self.step_count}, smallest element {dt_stable * self.c:.4g} mm): raise "
+                            f"{self.step_count}, {self._limit_text(dt_stable)}): raise "
                             f"solver.steps or drop it (adaptive step)")
             while next_row < len(row_times) and self.t >= row_times[next_row] - eps_t:
                 if on_row is not None:

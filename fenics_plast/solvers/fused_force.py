@@ -21,6 +21,9 @@ residual stays the definition the pass is held to: ``tests/test_fused_force.py``
 give the same force, stress and state and the same run to round-off; ``solver.internal_force =
 "ufl"`` selects the dolfinx route.
 
+Several materials (:class:`~fenics_plast.material.regions.MaterialRegions`): the material update runs
+per material on its own points (``regions``); one material takes the plain call, compiled as before.
+
 This module holds the internal-force pass only; the time integration that calls it (step loop,
 velocity-Verlet updates, prescribed motion, loads, contact) is
 :mod:`fenics_plast.solvers.time_integration`.
@@ -32,8 +35,11 @@ import math
 import basix
 import numba
 import numpy as np
+from numba.core import types
+from numba.extending import overload
 
 from fenics_plast.material import kernels
+from fenics_plast.material.regions import update_regions
 
 _njit = numba.njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
 
@@ -198,18 +204,46 @@ def _force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f):
 
 
 @_njit
-def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lam, mu, law, hp, yield_tol,
+def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lam, mu, law, hp, yield_tol, regions,
                    binv, eqps, tau, Fu, Finv, factor, theta, f):
     """Kinematics, material update and commit, nodal internal force, in one call.
 
     u, u_n : (2 n_nodes,) current and previous displacement (owned + ghost) [mm].
     cell_dofs : (nc, 4) node indices of the owned cells (basix order).
+    model, lam, mu, law, hp, yield_tol : ``Material.kernel_args()`` (one material), or the
+        per-material tables of ``MaterialRegions.kernel_args()`` together with ``regions``.
+    regions : None (one material) or ``MaterialRegions.point_layout(nq)``: the points of each
+        material and work arrays (several materials; :func:`fenics_plast.material.regions.update_regions`).
     binv, eqps : committed state (n,3,3), (n,), updated in place (explicit steps commit every update).
     tau : (n,3,3) Kirchhoff stress out [MPa]; Fu (n,3,3) work array whose off-block entries stay 0;
     Finv (n,5), factor (n,) work arrays; theta (nc,) mean dilatation out; f (2 n_nodes,) force out [N].
     Returns True if the stress and the force are finite.
     """
     _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta)
-    no_tangent = np.empty((1, 3, 3, 3, 3))
-    kernels.update_points(model, Fu, binv, eqps, lam, mu, law, hp, yield_tol, tau, binv, eqps, no_tangent, False)
+    _material_update(regions, model, lam, mu, law, hp, yield_tol, Fu, binv, eqps, tau)
     return _force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f)
+
+
+def _material_update(regions, model, lam, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
+    """Material update and commit of every point (compiled: see the overload below)."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(_material_update)
+def _material_update_impl(regions, model, lam, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
+    """Chosen by the type of ``regions`` when numba compiles: None (or left out), one material
+    (``kernels.update_points`` over all points, the call of a one-material body); a tuple, several
+    materials (:func:`update_regions` with the per-material tables in model..yield_tol)."""
+    if isinstance(regions, types.NoneType):
+        def one(regions, model, lam, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
+            no_tangent = np.empty((1, 3, 3, 3, 3))
+            kernels.update_points(model, Fu, binv, eqps, lam, mu, law, hp, yield_tol, tau, binv, eqps,
+                                  no_tangent, False)
+        return one
+
+    def several(regions, model, lam, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
+        no_tangent = np.empty((1, 3, 3, 3, 3))
+        order, offsets, Fu_b, B_b, e_b, tau_b = regions
+        update_regions(order, offsets, model, lam, mu, law, hp, yield_tol, Fu, binv, eqps, tau, binv, eqps,
+                       no_tangent, False, Fu_b, B_b, e_b, tau_b, no_tangent)
+    return several

@@ -63,9 +63,9 @@ def study_from_args(args) -> int:
         if args.out:
             out = args.out
         else:
-            from ..scene import SceneError, load_any
+            from ..problem import SceneError, load_problem
             try:
-                name = load_any(args.scene, args.set).name
+                name = load_problem(args.scene, args.set).name
             except SceneError as e:
                 raise StudyError(str(e)) from None
             out = str(Path("results") / f"study_{name}")

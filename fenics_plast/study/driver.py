@@ -58,20 +58,19 @@ def run_study(scene: str | Path, varies: Sequence[Vary], out: str | Path, sets: 
     (bad arguments: nothing run) when the scene or the fixed overrides are invalid.
 
     ``results``: the summary keys to compare (default: the runs' declared ``key_results``)."""
-    from ..scene import SceneError, load_any
+    from ..problem import SceneError, load_problem
 
     scene = Path(scene).resolve()
     sets = list(sets)
     _check(varies, np_ranks)
     try:
-        base = load_any(scene, sets)
+        base = load_problem(scene, sets)
     except SceneError as e:
         raise StudyError(str(e)) from None
     fixed = list(sets) if keep_outputs else ["output.xdmf=false", "output.plots=false", *sets]
     out = Path(out)
     (out / "runs").mkdir(parents=True, exist_ok=True)
-    title_kind = base.analysis.type if hasattr(base, "tables") else base.kind    # general format | old kind
-    study = Study(scene=scene, kind=title_kind, scene_name=base.name, varies=list(varies),
+    study = Study(scene=scene, analysis=base.analysis.type, scene_name=base.name, varies=list(varies),
                   sets=sets, keys=[], info=[], out=out, np_ranks=np_ranks,
                   command=command or study_command(str(scene), varies, sets, str(out), np_ranks))
     combos = combinations(varies)

@@ -168,9 +168,9 @@ def _fill(run: Run, rc: int, output: str, elapsed: float | None, run_dir: Path) 
 
 def prevalidate(scene: Path, sets: list[str]) -> str | None:
     """The SceneError message of a combination, or None when it is a valid scene (no MPI, fast)."""
-    from ..scene import SceneError, load_any
+    from ..problem import SceneError, load_problem
     try:
-        load_any(scene, sets)
+        load_problem(scene, sets)
     except SceneError as e:
         return str(e)
     return None

@@ -36,20 +36,6 @@ ORDERED_KEYS: dict[str, int] = {
     "analysis.atol": -1,
     "contact.*.penalty": +1,
     "contact.*.tangential_penalty": +1,
-    # old scene format, removed with the kind runners
-    "mesh.cells_radial": +1,
-    "mesh.cells_axial": +1,
-    "mesh.cells_thickness": +1,
-    "mesh.cells_circumferential": +1,
-    "solver.dt_safety": -1,
-    "solver.steps": +1,
-    "solver.increments": +1,
-    "solver.max_increment": -1,
-    "solver.min_increment": -1,
-    "solver.rtol": -1,
-    "solver.atol": -1,
-    "contact.penalty": +1,
-    "contact.tangential_penalty": +1,
 }
 
 #: Keys (fnmatch patterns) along which a Richardson extrapolation is made, with the mesh size h(value).

@@ -168,8 +168,8 @@ def _cheapest(study: Study) -> list[str]:
 
 def write_markdown(study: Study, path: Path, plot_name: str | None = "study.png") -> Path:
     _, rows = study.rows()
-    kind = f" ({study.kind})" if study.kind else ""
-    L = [f"# Study of `{study.scene_name}`{kind}", ""]
+    analysis = f" ({study.analysis})" if study.analysis else ""
+    L = [f"# Study of `{study.scene_name}`{analysis}", ""]
     L += ["```bash", study.command, "```", ""]
     L += [f"Scene file `{_display_path(study.scene)}`; {len(study.runs)} runs on {study.np_ranks} MPI rank(s); "
           f"{sum(r.ok for r in study.runs)} succeeded."]

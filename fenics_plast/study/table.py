@@ -68,7 +68,7 @@ class Study:
     keys: list[str]
     info: list[str]
     out: Path
-    kind: str = ""                                          # the scene's kind, if it has one (title only)
+    analysis: str = ""                                      # static | explicit (title only)
     np_ranks: int = 1
     paper: dict[str, float] = field(default_factory=dict)   # key -> published value compared with
     paper_sources: dict[str, str] = field(default_factory=dict)
