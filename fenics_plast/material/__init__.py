@@ -48,16 +48,6 @@ class Material:
         self._hp = hardening.params if hardening is not None else np.zeros(1)
         self._no_tangent = np.zeros((1, 3, 3, 3, 3))
 
-    @classmethod
-    def from_scene(cls, section) -> "Material":
-        """Build from a validated scene's [material] section (attribute access)."""
-        hard = getattr(section, "hardening", None)
-        hardening = None
-        if hard is not None:
-            kw = {k: v for k, v in vars(hard).items() if k != "law" and not k.startswith("_")}
-            hardening = Hardening(hard.law, **kw)
-        return cls(section.E, section.nu, hardening, model=section.model)
-
     @property
     def lame(self) -> tuple[float, float]:
         """Lamé constants (lambda, mu) [MPa]."""
