@@ -32,7 +32,7 @@ test-slow: install
 bench: install
 	@shopt -s nullglob; for b in benchmarks/*.py; do echo "== $$b"; $(PY) "$$b" || exit 1; done
 
-# Regenerate docs/SCENE_KEYS.md from the schema in fenics_plast/problem.py.
+# Regenerate docs/SCENE_KEYS.md from the schema in fenics_plast/schema.py.
 keys: install
 	$(PY) -m fenics_plast.keys_doc
 

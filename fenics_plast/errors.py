@@ -1,6 +1,5 @@
 """Exceptions shared between runners, solvers and the CLI.
 
-``SceneError`` (an invalid scene file) lives in :mod:`fenics_plast.problem`.
 """
 
 
@@ -15,3 +14,8 @@ class RunError(RuntimeError):
     def __init__(self, message: str, results: dict | None = None):
         super().__init__(message)
         self.results = dict(results or {})
+
+
+class SceneError(ValueError):
+    """A scene file (or a ``--set`` override) is invalid. The message names the file and key; the
+    CLI prints it and exits with status 2 before anything is written."""

@@ -2,13 +2,13 @@
 
 ``fenics-plast keys`` prints it, ``make keys`` rewrites docs/SCENE_KEYS.md, and
 tests/test_problem.py checks that the file is up to date: the reference cannot drift from what the
-validator accepts, because both read :data:`fenics_plast.problem.SCHEMA`.
+validator accepts, because both read :data:`fenics_plast.schema.SCHEMA`.
 """
 from __future__ import annotations
 
 from pathlib import Path
 
-from fenics_plast.problem import KG_M3, M_S, OPTIONAL, REQUIRED, SCHEMA, US, Key, Table
+from fenics_plast.schema import KG_M3, M_S, OPTIONAL, REQUIRED, SCHEMA, US, Key, Table
 
 DOCS_PATH = Path(__file__).resolve().parent.parent / "docs" / "SCENE_KEYS.md"
 
@@ -80,7 +80,7 @@ def keys_markdown() -> str:
     L = [
         "# Scene file keys",
         "",
-        "<!-- Generated from fenics_plast/problem.py (SCHEMA) by `make keys` (fenics-plast keys > "
+        "<!-- Generated from fenics_plast/schema.py (SCHEMA) by `make keys` (fenics-plast keys > "
         "docs/SCENE_KEYS.md). Do not edit by hand; tests/test_problem.py checks it is up to date. -->",
         "",
         "Scene files are TOML data (nothing in them is executed). Units: **mm, N, MPa, s**, with three",

@@ -17,7 +17,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from fenics_plast.expressions import parse_expression
-from fenics_plast.problem import COMPONENTS
+from fenics_plast.schema import COMPONENTS
 from fenics_plast.quadrature import von_mises
 
 N_MM_TO_J = 1e-3

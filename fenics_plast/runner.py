@@ -24,7 +24,8 @@ from mpi4py import MPI
 from fenics_plast.checkpoint import Checkpointer, scene_settings
 from fenics_plast.material import Hardening, Material, MaterialRegions
 from fenics_plast.meshing import MeshError, mesh_from_file
-from fenics_plast.problem import COMPONENTS, SceneError
+from fenics_plast.errors import SceneError
+from fenics_plast.schema import COMPONENTS
 
 US = 1e-6
 

@@ -13,7 +13,8 @@ import numpy as np
 from dolfinx import fem
 
 from fenics_plast.kinematics import Kinematics
-from fenics_plast.problem import M_S, SceneError
+from fenics_plast.errors import SceneError
+from fenics_plast.schema import M_S
 from fenics_plast.quantities import Body, Quantities
 from fenics_plast.runner import (body_material, cell_regions, checkpointer, components_of, contact_modulus,
                                  draw_plots, open_fields, read_mesh, symmetry_component, tool_of, values_of,

@@ -14,7 +14,8 @@ import ufl
 
 from fenics_plast.errors import RunError
 from fenics_plast.kinematics import Kinematics
-from fenics_plast.problem import COMPONENTS, SceneError
+from fenics_plast.errors import SceneError
+from fenics_plast.schema import COMPONENTS
 from fenics_plast.quadrature import von_mises
 from fenics_plast.quantities import Body, Quantities
 from fenics_plast.runner import (body_material, cell_regions, checkpointer, components_of, contact_modulus,

@@ -11,7 +11,7 @@ import pytest
 from fenics_plast.problem import SceneError, load_problem
 
 ROOT = Path(__file__).resolve().parent.parent
-GENERAL = ROOT / "demos" / "general"
+GENERAL = ROOT / "demos"
 PUNCH = GENERAL / "punch_stretching.toml"
 TAYLOR = GENERAL / "taylor_bar.toml"
 
@@ -67,7 +67,7 @@ def test_expressions_are_data(tmp_path, value, words):
                                      f'[boundary.clamp]\ngroup = "rim"\ntype = "displacement"\n'
                                      f'components = ["r"]\nvalue = {value}')
     path = tmp_path / "s.toml"
-    path.write_text(text.replace("../../meshes", str(ROOT / "meshes")))
+    path.write_text(text.replace("../meshes", str(ROOT / "meshes")))
     msg = refused(path)
     assert "boundary.clamp.value" in msg
     for w in words:
@@ -92,7 +92,7 @@ density = 7800.0
 def test_geo_that_gmsh_cannot_mesh_gives_gmsh_message(tmp_path):
     (tmp_path / "bad.geo").write_text("Point(1) = {0, 0, 0};\nLine(1) = {1, 2};\n")
     path = tmp_path / "s.toml"
-    path.write_text(TAYLOR.read_text().replace('file = "../../meshes/round_bar.geo"', 'file = "bad.geo"')
+    path.write_text(TAYLOR.read_text().replace('file = "../meshes/round_bar.geo"', 'file = "bad.geo"')
                     .split("[mesh.parameters]")[0] + "\n" + TAYLOR.read_text().split("cells_axial = 36")[1])
     out = tmp_path / "out"
     p = subprocess.run([sys.executable, "-m", "fenics_plast.cli", "run", str(path), "--out", str(out)],

@@ -1,0 +1,332 @@
+"""The scene-file schema: every key of every table, declared once.
+
+:data:`SCHEMA` maps each section to a :class:`Table` of :class:`Key` declarations: type, default
+(or :data:`REQUIRED` / :data:`OPTIONAL`), range or choices, unit, scale from the file's unit and
+meaning. Keys that only apply to some variants of a table (``analysis.type``,
+``boundary.<name>.type``, ``tools.<name>.shape``, ``outputs.<name>.quantity``,
+``materials.<name>.hardening.law``) say so in ``Key.when``. The validator
+(:mod:`fenics_plast.validation`), the ``--set`` overrides and the key reference
+(:mod:`fenics_plast.keys_doc`, docs/SCENE_KEYS.md) all read this one table.
+
+Units inside the package: mm, N, MPa, s, tonne/mm^3. Converted on reading (the value as written is
+kept under ``<key>_as_written``): densities in kg/m^3 (:data:`KG_M3`), velocities in m/s
+(:data:`M_S`), explicit times in us (:data:`US`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+__all__ = ["SCHEMA", "SECTIONS", "Key", "Table", "REQUIRED", "OPTIONAL", "COMPONENTS", "LAWS", "US", "M_S",
+           "KG_M3"]
+
+
+class _Marker:
+    def __init__(self, name: str):
+        self.name = name
+
+    def __repr__(self) -> str:
+        return self.name
+
+
+REQUIRED = _Marker("REQUIRED")   # must be given
+OPTIONAL = _Marker("OPTIONAL")   # may be omitted; then the attribute is None
+
+#: component names of vectors: x = r and y = z in axisymmetry
+COMPONENTS = {"x": 0, "y": 1, "r": 0, "z": 1}
+LAWS = ("linear", "swift", "voce", "table")
+STATIC, EXPLICIT = ("static",), ("explicit",)
+US = 1e-6          # explicit times are written in microseconds
+M_S = 1e3          # velocities are written in m/s -> mm/s
+KG_M3 = 1e-12      # densities are written in kg/m^3 -> tonne/mm^3
+
+
+@dataclass(frozen=True)
+class Key:
+    """One scene key. ``when`` = {discriminator key: allowed values} restricts it to table variants
+    (e.g. {"type": ("static",)}); ``when_analysis`` restricts it to analysis types."""
+    type: str                       # str | int | float | bool | floats | strs | vector | values | segments | path
+    default: Any                    # a value, REQUIRED or OPTIONAL
+    doc: str
+    unit: str = ""
+    choices: tuple | None = None
+    lo: float | None = None
+    lo_open: bool = True
+    hi: float | None = None
+    hi_open: bool = True
+    when: dict | None = None
+    when_analysis: tuple | None = None
+    scale: float = 1.0              # file units -> internal units; the value as written stays in <name>_as_written
+    analysis_default: dict | None = None   # {analysis type: default} when the default depends on it
+
+    def range_text(self, name: str) -> str:
+        lo = None if self.lo is None else f"{_num(self.lo)} {'<' if self.lo_open else '<='} "
+        hi = None if self.hi is None else f" {'<' if self.hi_open else '<='} {_num(self.hi)}"
+        if lo and hi:
+            return f"{lo}{name}{hi}"
+        if lo:
+            return f"{name} {'>' if self.lo_open else '>='} {_num(self.lo)}"
+        if hi:
+            return f"{name}{hi}"
+        return ""
+
+    def in_range(self, v: float) -> bool:
+        if self.lo is not None and (v <= self.lo if self.lo_open else v < self.lo):
+            return False
+        return not (self.hi is not None and (v >= self.hi if self.hi_open else v > self.hi))
+
+
+def _num(x) -> str:
+    if isinstance(x, float) and x.is_integer() and abs(x) < 1e15:
+        return str(int(x))
+    return repr(x) if isinstance(x, float) else str(x)
+
+
+def _pos(**kw):
+    return dict(lo=0.0, lo_open=True, **kw)
+
+
+def _nonneg(**kw):
+    return dict(lo=0.0, lo_open=False, **kw)
+
+
+def _count(**kw):
+    return dict(lo=1, lo_open=False, **kw)
+
+
+@dataclass(frozen=True)
+class Table:
+    """A table of keys. ``collection``: the section holds any number of named tables of this shape.
+    ``discriminator``: the key whose value selects which other keys apply. ``subtables``: nested
+    tables (name -> Table). ``free``: a table of user-named numbers (mesh parameters)."""
+    doc: str
+    keys: dict[str, Key] = field(default_factory=dict)
+    collection: bool = False
+    discriminator: str | None = None
+    subtables: dict[str, "Table"] = field(default_factory=dict)
+    optional: bool = True
+    free: bool = False
+    when_analysis: tuple | None = None
+
+
+_FORCE_UNITS = ("N", "kN")
+_VALUE_DOC = ("a number, an expression of x, y, z, t in quotes (\"3.0*t\"), or a table "
+              "{ t = [...], value = [...] } (piecewise linear, constant outside)")
+
+SCHEMA: dict[str, Table] = {
+    "scene": Table("What the problem is.", optional=False, keys={
+        "name": Key("str", REQUIRED, "Problem name; the default output directory is results/<name>."),
+        "description": Key("str", "", "Free text."),
+    }),
+    "analysis": Table(
+        "How the problem is solved. `static`: quasi-static load incrementation over a pseudo-time t "
+        "(from 0 to the end of the last step; 1 when there are no [steps]) with Newton (PETSc SNES, MUMPS) "
+        "and cut-back. `explicit`: central differences with a lumped mass over real time, written in µs.",
+        optional=False, discriminator="type", keys={
+            "type": Key("str", REQUIRED, "Static or explicit.", choices=("static", "explicit")),
+            "increments": Key("int", 20, "Initial number of equal increments of a step.", when={"type": STATIC},
+                              **_count()),
+            "min_increment": Key("float", 1e-4, "Smallest increment of pseudo-time before the run gives up.",
+                                 when={"type": STATIC}, **_pos()),
+            "max_increment": Key("float", 0.1, "Largest increment of pseudo-time.", when={"type": STATIC},
+                                 **_pos()),
+            "max_iterations": Key("int", 25, "Newton iterations per increment before cutting back.",
+                                  when={"type": STATIC}, lo=2, lo_open=False),
+            "rtol": Key("float", 1e-9, "Relative residual tolerance.", when={"type": STATIC}, **_pos()),
+            "atol": Key("float", 1e-8, "Absolute residual tolerance.", "N", when={"type": STATIC}, **_pos()),
+            "linesearch": Key("str", "bt", "SNES line search.", choices=("bt", "basic", "l2"),
+                              when={"type": STATIC}),
+            "end_time": Key("float", REQUIRED, "Simulated time.", "µs", when={"type": EXPLICIT}, scale=US, **_pos()),
+            "dt_safety": Key("float", 0.8, "Time step = dt_safety x the stable limit.", when={"type": EXPLICIT},
+                             lo=0.0, hi=1.0, hi_open=False),
+            "time_steps": Key("int", OPTIONAL, "Fixes dt = end_time / time_steps; refused above the stable limit.",
+                              when={"type": EXPLICIT}, **_count()),
+            "internal_force": Key("str", "fused", "How the explicit internal force is computed: 'fused' (one "
+                                  "compiled pass, the default) or 'ufl' (the UFL residual assembled by dolfinx, "
+                                  "the definition). Same numbers to round-off.", when={"type": EXPLICIT},
+                                  choices=("fused", "ufl")),
+        }),
+    "mesh": Table(
+        "The mesh: a Gmsh `.geo` file (meshed when the run starts, with `[mesh.parameters]` set as its "
+        "`DefineConstant` values \"Parameters/<name>\") or a `.msh` file. Regions and boundaries are Gmsh "
+        "physical groups (surfaces and curves), referred to by name.", optional=False, keys={
+            "file": Key("str", REQUIRED, "Path of the .geo or .msh file, relative to the scene file."),
+            "geometry": Key("str", "axisymmetric", "2-D idealisation: x = r and y = z in axisymmetry.",
+                            choices=("axisymmetric", "plane_strain")),
+            "element": Key("str", "q1p0", "q1p0: Q1 displacement + DG0 dilatation (F-bar); q1: plain Q1.",
+                           choices=("q1p0", "q1")),
+            "refine": Key("int", 1, "Multiplies every mesh parameter whose name starts with `cells` (.geo only).",
+                          **_count()),
+        }, subtables={"parameters": Table("Named numbers passed to the .geo file (its DefineConstant "
+                                          "\"Parameters/<name>\"); unknown names are refused.", free=True)}),
+    "materials": Table(
+        "Materials, one table per name. Each applies to the cell regions it lists; a single material "
+        "without `regions` applies to the whole mesh.", optional=False, collection=True, keys={
+            "regions": Key("strs", OPTIONAL, "Gmsh physical surface names (cell regions) this material fills."),
+            "model": Key("str", "isochoric", "seed: be^-1 radial return (Almansi, Simo-Ortiz); isochoric: "
+                         "exponential map in log strain.", choices=("seed", "isochoric")),
+            "E": Key("float", REQUIRED, "Young's modulus.", "MPa", **_pos()),
+            "nu": Key("float", REQUIRED, "Poisson's ratio.", "", lo=-1.0, hi=0.5),
+            "density": Key("float", OPTIONAL, "Mass density (required in explicit analyses).", "kg/m³",
+                           scale=KG_M3, **_pos()),
+        }, subtables={"hardening": Table(
+            "Optional: absent = purely elastic (plasticity off). Only the keys of the chosen `law` apply.",
+            discriminator="law", keys={
+                "law": Key("str", REQUIRED, "Hardening law.", choices=LAWS),
+                "yield_stress": Key("float", REQUIRED, "Initial yield stress.", "MPa",
+                                    when={"law": ("linear", "voce")}, **_nonneg()),
+                "modulus": Key("float", 0.0, "Linear hardening modulus (voce: added linear term).", "MPa",
+                               when={"law": ("linear", "voce")}, **_nonneg()),
+                "K": Key("float", REQUIRED, "Swift: sigma_y = K (eps0 + eqps)^n.", "MPa", when={"law": ("swift",)},
+                         **_pos()),
+                "eps0": Key("float", REQUIRED, "Swift pre-strain.", "", when={"law": ("swift",)}, **_pos()),
+                "n": Key("float", REQUIRED, "Swift exponent.", "", when={"law": ("swift",)}, lo=0.0,
+                         lo_open=False, hi=1.0, hi_open=False),
+                "Q": Key("float", REQUIRED, "Voce: sigma_y = yield_stress + Q (1 - exp(-b eqps)) + modulus eqps.",
+                         "MPa", when={"law": ("voce",)}, **_nonneg()),
+                "b": Key("float", REQUIRED, "Voce saturation rate.", "", when={"law": ("voce",)}, **_pos()),
+                "strain": Key("floats", REQUIRED, "Table: equivalent plastic strains, >= 2, strictly "
+                              "increasing, first 0.", "", when={"law": ("table",)}),
+                "stress": Key("floats", REQUIRED, "Table: yield stress at each strain (piecewise linear), "
+                              "each >= 0.", "MPa", when={"law": ("table",)}),
+            })}),
+    "boundary": Table(
+        "Boundary conditions and loads, one table per name, each on a Gmsh facet group. Static: t is the "
+        "pseudo-time; explicit: t is the time in µs. Values: " + _VALUE_DOC + ".",
+        collection=True, discriminator="type", keys={
+            "group": Key("str", REQUIRED, "Gmsh physical curve name (facet group)."),
+            "type": Key("str", REQUIRED, "fixed: components held at 0; displacement: prescribed [mm]; velocity "
+                        "(explicit): prescribed [m/s]; traction: dead load [MPa] per reference area; pressure: "
+                        "normal dead load [MPa], positive pushes into the body; symmetry: the normal component "
+                        "held at 0 (the group must be a straight line normal to x or y); axis: u_r = 0 "
+                        "(axisymmetric).",
+                        choices=("fixed", "displacement", "velocity", "traction", "pressure", "symmetry", "axis")),
+            "components": Key("strs", REQUIRED, "Components: x, y (r, z in axisymmetry).",
+                              when={"type": ("fixed", "displacement", "velocity", "traction")}),
+            "value": Key("values", REQUIRED, "One value per component (a list), or one value for all.",
+                         when={"type": ("displacement", "velocity", "traction", "pressure")}),
+        }),
+    "initial_velocity": Table(
+        "Initial velocity (explicit), one table per name.", collection=True, when_analysis=EXPLICIT, keys={
+            "regions": Key("strs", OPTIONAL, "Cell regions; absent = the whole body."),
+            "value": Key("values", REQUIRED, "Velocity (x, y): numbers or expressions of x, y, z.", "m/s",
+                         scale=M_S),
+        }),
+    "tools": Table(
+        "Rigid analytic tools, one table per name, each moving along `path`. The body lies on the side the "
+        "normal points to (plane), outside (circle), or on `body_side` of the profile.",
+        collection=True, discriminator="shape", keys={
+            "shape": Key("str", REQUIRED, "plane: half-space; circle: disc (a sphere or torus in axisymmetry); "
+                         "profile: chain of line segments and circular arcs (revolved in axisymmetry).",
+                         choices=("plane", "circle", "profile")),
+            "point": Key("vector", REQUIRED, "A point of the plane.", "mm", when={"shape": ("plane",)}),
+            "normal": Key("vector", REQUIRED, "Normal of the plane, pointing into the body.", "",
+                          when={"shape": ("plane",)}),
+            "center": Key("vector", REQUIRED, "Centre at t = 0.", "mm", when={"shape": ("circle",)}),
+            "radius": Key("float", REQUIRED, "Radius.", "mm", when={"shape": ("circle",)}, **_pos()),
+            "segments": Key("segments", REQUIRED, "Profile pieces in order: { line = [[x0, y0], [x1, y1]] } or "
+                            "{ arc = [cx, cy], radius = R, from = deg, to = deg } (counter-clockwise when "
+                            "to > from).", "mm", when={"shape": ("profile",)}),
+            "body_side": Key("str", "left", "Side of the profile (walking along it) where the body lies.",
+                             when={"shape": ("profile",)}, choices=("left", "right")),
+            "path": Key("path", OPTIONAL, "Translation: { t = [...], x = [...], y = [...] } (piecewise linear; "
+                        "a missing component stays 0); absent = fixed.", "mm"),
+        }),
+    "contact": Table(
+        "Contact pairs, one table per name: a tool against a facet group of the body (penalty, nodal rule).",
+        collection=True, keys={
+            "tool": Key("str", REQUIRED, "Name of a [tools.<name>] table."),
+            "group": Key("str", REQUIRED, "Gmsh physical curve name of the body's candidate facets."),
+            "friction": Key("float", 0.0, "Coulomb coefficient mu (0: frictionless, no friction term).", "",
+                            **_nonneg()),
+            "law": Key("str", "quasi-coulomb", "coulomb: current p and N; quasi-coulomb: p and N frozen over an "
+                       "increment (seed eq. 24, symmetric).", choices=("coulomb", "quasi-coulomb")),
+            "penalty": Key("float", OPTIONAL, "Normal penalty; absent = 0.3 E / h, h the mean depth of the "
+                           "cells along the group.", "N/mm³", **_pos()),
+            "tangential_penalty": Key("float", OPTIONAL, "Tangential (stick) penalty; absent = the normal "
+                                      "penalty.", "N/mm³", **_pos()),
+        }),
+    "steps": Table(
+        "Static load steps, in order of `end`. Each ends at a pseudo-time where a converged state is "
+        "written (profiles, fields); boundary values and tool paths are functions of t across steps.",
+        collection=True, when_analysis=STATIC, keys={
+            "end": Key("float", REQUIRED, "Pseudo-time at the end of the step.", "", **_pos()),
+            "increments": Key("int", OPTIONAL, "Initial increments of this step (absent: analysis.increments).",
+                              **_count()),
+            "max_increment": Key("float", OPTIONAL, "Largest increment (absent: analysis.max_increment).",
+                                 **_pos()),
+        }),
+    "outputs": Table(
+        "Quantities recorded every increment (static) or history row (explicit): each is a history.csv "
+        "column named <name>_<unit>, and its final value goes into summary.json.",
+        collection=True, discriminator="quantity", keys={
+            "quantity": Key("str", REQUIRED, "reaction: sum of the reactions on a constrained group; "
+                            "tool_force: force of a tool on the body; tool_displacement: the tool's translation; "
+                            "displacement / position: of the node "
+                            "nearest `point`; extent: largest or smallest current coordinate of a group (or "
+                            "the body); field: largest or smallest value of a field over a region (or the body); "
+                            "energy: one of the energies; thickness: ln(t/t0) between two facing groups along "
+                            "the first (a profile, written to <name>.csv at every step end); expression: a "
+                            "value computed from other outputs (its column is the output's name as written: put "
+                            "the unit in the name, e.g. pressure_MPa).",
+                            choices=("reaction", "tool_force", "tool_displacement", "displacement", "position", "extent", "field",
+                                     "energy", "thickness", "expression")),
+            "group": Key("str", OPTIONAL, "Facet group (extent: absent = the whole body).",
+                         when={"quantity": ("reaction", "extent", "thickness")}),
+            "opposite": Key("str", REQUIRED, "The facing group (thickness).", when={"quantity": ("thickness",)}),
+            "tool": Key("str", REQUIRED, "Tool name.", when={"quantity": ("tool_force", "tool_displacement")}),
+            "component": Key("str", REQUIRED, "x or y (r or z).", choices=tuple(COMPONENTS),
+                             when={"quantity": ("reaction", "tool_force", "tool_displacement", "displacement",
+                                                "position", "extent")}),
+            "point": Key("vector", REQUIRED, "Reference coordinates; the nearest node is used.", "mm",
+                         when={"quantity": ("displacement", "position")}),
+            "which": Key("str", "max", "Largest or smallest.", choices=("max", "min"),
+                         when={"quantity": ("extent", "field")}),
+            "field": Key("str", REQUIRED, "eqps: equivalent plastic strain; von_mises: Kirchhoff von Mises "
+                         "stress [MPa].", choices=("eqps", "von_mises"), when={"quantity": ("field",)}),
+            "regions": Key("strs", OPTIONAL, "Cell regions (absent = the whole body).", when={"quantity": ("field",)}),
+            "energy": Key("str", REQUIRED, "kinetic, elastic, plastic (dissipation), external_work, "
+                          "balance_error (relative) or all (the five).",
+                          choices=("kinetic", "elastic", "plastic", "external_work", "balance_error", "all"),
+                          when={"quantity": ("energy",)}),
+            "unit": Key("str", "kN", "Force unit of the column.", choices=_FORCE_UNITS,
+                        when={"quantity": ("reaction", "tool_force")}),
+            "expression": Key("str", REQUIRED, "An expression (see [boundary] values) of t and of the names "
+                              "of other one-column outputs declared before it, each in its column's unit.",
+                              when={"quantity": ("expression",)}),
+            "scale": Key("float", 1.0, "Factor applied to the measured value: e.g. 2 for the elongation of a "
+                         "half model, 4 for the force on a quarter model.",
+                         when={"quantity": ("reaction", "tool_force", "tool_displacement", "displacement")}),
+            "at_max_of": Key("str", OPTIONAL, "Name of another one-column output: summary.json also gets this "
+                             "output's value where that one is largest (<column>_at_max_<its column>)."),
+            "summary": Key("strs", ["final"], "What goes into summary.json: final, max, min (max adds "
+                           "max_<column> and, for static runs, the pseudo-time of the maximum)."),
+            "key": Key("bool", False, "A key result: `fenics-plast study` reports its error."),
+            "reference": Key("float", OPTIONAL, "A published value of the final result (study: err_paper_)."),
+            "reference_source": Key("str", "", "Where `reference` comes from."),
+        }),
+    "plots": Table(
+        "Figures drawn from history.csv (and the profiles, final shape) at the end of the run and by "
+        "`fenics-plast plot DIR`.", collection=True, discriminator="type", keys={
+            "type": Key("str", "history", "history: columns against a column; profile: a thickness output "
+                        "along its group at each step end; shape: the final deformed mesh coloured by eqps.",
+                        choices=("history", "profile", "shape")),
+            "x": Key("str", REQUIRED, "Column of history.csv on the x axis.", when={"type": ("history",)}),
+            "y": Key("strs", REQUIRED, "Columns on the y axis (one line each).", when={"type": ("history",)}),
+            "output": Key("str", REQUIRED, "Name of a thickness output.", when={"type": ("profile",)}),
+            "title": Key("str", "", "Figure title (default: the scene name)."),
+        }),
+    "output": Table("What is written to the output directory.", keys={
+        "xdmf": Key("bool", True, "Write fields to fields.xdmf."),
+        "every": Key("int", 1, "Write fields every N increments (static) or history rows (explicit).", **_count()),
+        "plots": Key("bool", True, "Draw the [plots] as PNG files."),
+        "history_points": Key("int", 200, "Number of history rows (explicit).", when_analysis=EXPLICIT,
+                              lo=2, lo_open=False),
+        "checkpoint_every": Key("int", None, "Checkpoint every N steps (explicit) or converged increments "
+                                "(static) into checkpoint/ (0: never); `--resume DIR` continues a killed run.",
+                                analysis_default={"explicit": 2000, "static": 10}, lo=0, lo_open=False),
+    }),
+}
+
+SECTIONS = tuple(SCHEMA)
+

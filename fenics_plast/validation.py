@@ -1,0 +1,439 @@
+"""Validation of a scene file's raw TOML data against :data:`fenics_plast.schema.SCHEMA`.
+
+:func:`validate_tables` checks every section, key, type, range, choice and variant, then the rules
+between keys (:func:`_cross_checks`), and returns the validated tables as :class:`Section` objects
+(collections as dicts name -> Section). Every error is a :class:`fenics_plast.errors.SceneError`
+whose message names the file and the dotted key; nothing else is raised. Values that vary in space
+or time become :class:`fenics_plast.expressions.Value` (numbers, tables, checked expressions).
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from fenics_plast.errors import SceneError
+from fenics_plast.expressions import ExpressionError, parse_expression, parse_value
+from fenics_plast.schema import COMPONENTS, OPTIONAL, REQUIRED, SCHEMA, SECTIONS, Key, Table, _VALUE_DOC, _num
+
+__all__ = ["Section", "validate_tables"]
+
+
+class Section:
+    """Read-only attribute access to one validated table (``problem.analysis.dt_safety``).
+
+    ``name`` is the user's name of a collection member (``contact.punch`` -> "punch"); ``to_dict()``
+    gives the keys (nested tables as dicts)."""
+
+    def __init__(self, dotted: str, values: dict[str, Any], name: str | None = None):
+        object.__setattr__(self, "_dotted", dotted)
+        object.__setattr__(self, "name", name)
+        for k, v in values.items():
+            object.__setattr__(self, k, v)
+
+    @property
+    def _values(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if not k.startswith("_") and k != "name"}
+
+    def __getattr__(self, key: str):
+        if key.startswith("__"):
+            raise AttributeError(key)
+        raise AttributeError(f"[{self.__dict__.get('_dotted')}] has no key {key!r} "
+                             f"(has: {', '.join(self._values)})")
+
+    def __setattr__(self, key, value):
+        raise AttributeError("scene tables are read-only; use --set to override keys")
+
+    def get(self, key: str, default=None):
+        return self._values.get(key, default)
+
+    def __contains__(self, key: str) -> bool:
+        return key in self._values
+
+    def to_dict(self) -> dict[str, Any]:
+        def plain(v):
+            if isinstance(v, Section):
+                return v.to_dict()
+            if isinstance(v, dict):
+                return {k: plain(x) for k, x in v.items()}
+            if isinstance(v, (tuple, list)):
+                return [plain(x) for x in v]
+            if hasattr(v, "describe"):
+                return v.describe()
+            return v
+        return {k: plain(v) for k, v in self._values.items()}
+
+    def __repr__(self) -> str:
+        return f"Section[{self._dotted}]({self.to_dict()!r})"
+
+
+
+
+def _fmt(v) -> str:
+    if isinstance(v, str):
+        return repr(v)
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return _num(v)
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{k} = {_fmt(x)}" for k, x in v.items()) + "}"
+    if isinstance(v, list):
+        return "[" + ", ".join(_fmt(x) for x in v) + "]"
+    return str(v)
+
+
+_TYPE_TEXT = {"str": "a string", "int": "an integer", "float": "a number", "bool": "true or false",
+              "floats": "a list of numbers", "strs": "a list of strings (or one string)",
+              "vector": "a list of 2 numbers [x, y]", "value": _VALUE_DOC,
+              "values": "a value or a list of values, each " + _VALUE_DOC,
+              "segments": "a list of inline tables { line = ... } or { arc = ..., radius = ..., from = ..., to = ... }",
+              "path": "an inline table { t = [...], x = [...], y = [...] }"}
+
+
+def _is_number(x) -> bool:
+    return not isinstance(x, bool) and isinstance(x, (int, float))
+
+
+class _Validator:
+    def __init__(self, where: str, analysis: str | None = None):
+        self.where = where
+        self.analysis = analysis
+
+    def fail(self, msg: str):
+        raise SceneError(f"{self.where}: {msg}")
+
+    def finite(self, dotted, x) -> float:
+        x = float(x)
+        if not math.isfinite(x):
+            self.fail(f"{dotted} = {_fmt(x)} is not a finite number")
+        return x
+
+    def coerce(self, dotted: str, key: Key, v):
+        """Check the type, choices and range of one value; returns it in internal units."""
+        t = key.type
+        bad = False
+        if t == "str":
+            bad = not isinstance(v, str)
+        elif t == "bool":
+            bad = not isinstance(v, bool)
+        elif t == "int":
+            bad = isinstance(v, bool) or not isinstance(v, int)
+        elif t == "float":
+            bad = not _is_number(v)
+            if not bad:
+                v = self.finite(dotted, v)
+        elif t == "floats":
+            bad = not isinstance(v, list) or not all(_is_number(x) for x in v)
+            if not bad:
+                v = tuple(self.finite(dotted, x) for x in v)
+        elif t == "strs":
+            if isinstance(v, str):
+                v = [v]
+            bad = not isinstance(v, list) or not v or not all(isinstance(x, str) for x in v)
+            if not bad:
+                v = tuple(v)
+        elif t == "vector":
+            bad = not isinstance(v, list) or len(v) != 2 or not all(_is_number(x) for x in v)
+            if not bad:
+                v = tuple(self.finite(dotted, x) for x in v)
+        elif t in ("value", "values"):
+            return self.values(dotted, key, v)
+        elif t == "segments":
+            return self.segments(dotted, v)
+        elif t == "path":
+            return self.path(dotted, v)
+        if bad:
+            self.fail(f"{dotted} = {_fmt(v)} has the wrong type: must be {_TYPE_TEXT[t]}")
+        if key.choices is not None:
+            for x in (v if t == "strs" else (v,)):
+                if x not in key.choices:
+                    self.fail(f"{dotted} = {_fmt(x)} is not allowed: must be one of {', '.join(key.choices)}")
+        if t in ("int", "float") and not key.in_range(v):
+            self.fail(f"{dotted} = {_fmt(v)} is out of range: must satisfy {key.range_text(dotted.split('.')[-1])}")
+        if t == "float" and key.scale != 1.0:
+            v = v * key.scale
+        return v
+
+    def values(self, dotted: str, key: Key, v):
+        """A value spec or a list of them (one per component); expressions in x, y, z, t. Times of
+        explicit analyses are in µs in the file: the value's t is scaled to seconds by the runner."""
+        items = v if (key.type == "values" and isinstance(v, list)) else [v]
+        if not items:
+            self.fail(f"{dotted} = []: must be {_TYPE_TEXT[key.type]}")
+        out = []
+        for i, item in enumerate(items):
+            where = dotted if len(items) == 1 and not isinstance(v, list) else f"{dotted}[{i}]"
+            try:
+                out.append(parse_value(item, where))
+            except ExpressionError as e:
+                self.fail(str(e))
+        return tuple(out) if isinstance(v, list) else out[0]
+
+    def segments(self, dotted: str, v):
+        if not isinstance(v, list) or not v:
+            self.fail(f"{dotted} = {_fmt(v)} has the wrong type: must be {_TYPE_TEXT['segments']}")
+        out = []
+        for i, s in enumerate(v):
+            where = f"{dotted}[{i}]"
+            if not isinstance(s, dict):
+                self.fail(f"{where} = {_fmt(s)} has the wrong type: must be an inline table")
+            if "line" in s:
+                if set(s) != {"line"}:
+                    self.fail(f"{where}: a line has only the key `line` = [[x0, y0], [x1, y1]] (got {', '.join(s)})")
+                pts = s["line"]
+                if not (isinstance(pts, list) and len(pts) == 2 and all(
+                        isinstance(p, list) and len(p) == 2 and all(_is_number(x) for x in p) for p in pts)):
+                    self.fail(f"{where}.line = {_fmt(pts)} must be [[x0, y0], [x1, y1]]")
+                p0, p1 = (tuple(self.finite(where, x) for x in p) for p in pts)
+                if p0 == p1:
+                    self.fail(f"{where}.line has zero length")
+                out.append(("line", p0, p1))
+            elif "arc" in s:
+                if set(s) != {"arc", "radius", "from", "to"}:
+                    self.fail(f"{where}: an arc has the keys arc = [cx, cy], radius, from, to (got {', '.join(s)})")
+                c = s["arc"]
+                if not (isinstance(c, list) and len(c) == 2 and all(_is_number(x) for x in c)):
+                    self.fail(f"{where}.arc = {_fmt(c)} must be the centre [cx, cy]")
+                for k in ("radius", "from", "to"):
+                    if not _is_number(s[k]):
+                        self.fail(f"{where}.{k} = {_fmt(s[k])} must be a number")
+                r = self.finite(f"{where}.radius", s["radius"])
+                if r <= 0:
+                    self.fail(f"{where}.radius = {_fmt(r)} is out of range: must be > 0")
+                a0, a1 = self.finite(f"{where}.from", s["from"]), self.finite(f"{where}.to", s["to"])
+                if a0 == a1:
+                    self.fail(f"{where}: from = to = {_fmt(a0)}: the arc is empty")
+                out.append(("arc", tuple(float(x) for x in c), r, a0, a1))
+            else:
+                self.fail(f"{where} = {_fmt(s)}: must be {{ line = ... }} or {{ arc = ..., radius, from, to }}")
+        return tuple(out)
+
+    def path(self, dotted: str, v):
+        if not isinstance(v, dict) or "t" not in v or not (set(v) - {"t"}) or not set(v) <= {"t", "x", "y"}:
+            self.fail(f"{dotted} = {_fmt(v)} has the wrong type: must be {_TYPE_TEXT['path']}")
+        out = {}
+        for comp in ("x", "y"):
+            if comp in v:
+                try:
+                    out[comp] = parse_value({"t": v["t"], "value": v[comp]}, f"{dotted}.{comp}")
+                except ExpressionError as e:
+                    self.fail(str(e))
+        return out
+
+    # -- tables ---------------------------------------------------------------------------------
+    def table(self, dotted: str, spec: Table, given: dict, name: str | None = None) -> Section:
+        if not isinstance(given, dict):
+            self.fail(f"{dotted} = {_fmt(given)}: [{dotted}] must be a table")
+        variant = None
+        if spec.discriminator is not None:
+            dkey = spec.keys[spec.discriminator]
+            if spec.discriminator in given:
+                variant = self.coerce(f"{dotted}.{spec.discriminator}", dkey, given[spec.discriminator])
+            elif dkey.default is REQUIRED:
+                self.fail(f"{dotted}.{spec.discriminator} is missing: required, one of {', '.join(dkey.choices)}")
+            else:
+                variant = dkey.default
+        allowed = {k: key for k, key in spec.keys.items() if self._applies(key, spec.discriminator, variant)}
+        for k, x in given.items():
+            if k in allowed or k in spec.subtables:
+                continue
+            what = f"{spec.discriminator} {variant!r}" if variant is not None else f"[{dotted}]"
+            if k in spec.keys:
+                key = spec.keys[k]
+                if key.when_analysis and self.analysis not in key.when_analysis:
+                    self.fail(f"{dotted}.{k} is only for {'/'.join(key.when_analysis)} analyses")
+                self.fail(f"{dotted}.{k} is not a key of {what}: allowed keys are {', '.join(allowed)}")
+            self.fail(f"{dotted}.{k} is an unknown key: allowed keys in [{dotted}] are "
+                      f"{', '.join(list(allowed) + list(spec.subtables))}")
+        values: dict[str, Any] = {}
+        for k, key in allowed.items():
+            kd = f"{dotted}.{k}"
+            if k in given:
+                val = self.coerce(kd, key, given[k])
+                if key.type == "float" and key.scale != 1.0:
+                    values[f"{k}_as_written"] = given[k]
+            else:
+                default = key.default
+                if key.analysis_default is not None:
+                    default = key.analysis_default[self.analysis]
+                if default is REQUIRED:
+                    self.fail(f"{kd} is missing: required ({self._what(k, key)})")
+                val = None if default is OPTIONAL else (tuple(default) if isinstance(default, list) else default)
+            values[k] = val
+        for sub, subspec in spec.subtables.items():
+            sd = f"{dotted}.{sub}"
+            if sub not in given:
+                values[sub] = {} if subspec.free else None
+            elif subspec.free:
+                values[sub] = self.free(sd, given[sub])
+            else:
+                values[sub] = self.table(sd, subspec, given[sub])
+        return Section(dotted, values, name)
+
+    def free(self, dotted: str, given) -> dict[str, float]:
+        if not isinstance(given, dict):
+            self.fail(f"{dotted} = {_fmt(given)}: [{dotted}] must be a table of numbers")
+        out = {}
+        for k, x in given.items():
+            if not _is_number(x):
+                self.fail(f"{dotted}.{k} = {_fmt(x)} has the wrong type: must be a number")
+            out[k] = x if isinstance(x, int) else self.finite(f"{dotted}.{k}", x)
+        return out
+
+    def _applies(self, key: Key, disc: str | None, variant) -> bool:
+        if key.when_analysis and self.analysis not in key.when_analysis:
+            return False
+        if key.when:
+            return all(variant in allowed for allowed in key.when.values())
+        return True
+
+    @staticmethod
+    def _what(name: str, key: Key) -> str:
+        if key.choices:
+            return "one of " + ", ".join(key.choices)
+        rng = key.range_text(name)
+        return _TYPE_TEXT.get(key.type, key.type) + (f", {rng}" if rng else "") + (f" [{key.unit}]" if key.unit else "")
+
+
+def validate_tables(raw: dict, where: str) -> dict[str, Any]:
+    """The validated tables of raw TOML data ``raw`` (``where``: the file, for messages)."""
+    v = _Validator(where)
+    for top in raw:
+        if top not in SCHEMA:
+            v.fail(f"{top}: unknown section [{top}]: allowed sections are "
+                   f"{', '.join('[' + s + ']' for s in SECTIONS)}")
+    ana = raw.get("analysis")
+    if not isinstance(ana, dict) or "type" not in ana:
+        v.fail("analysis.type is missing: required, one of static, explicit")
+    v.analysis = v.coerce("analysis.type", SCHEMA["analysis"].keys["type"], ana["type"])
+    tables: dict[str, Any] = {}
+    for sec, spec in SCHEMA.items():
+        given = raw.get(sec)
+        if spec.when_analysis and v.analysis not in spec.when_analysis:
+            if given:
+                v.fail(f"{sec}: [{sec}] is only for {'/'.join(spec.when_analysis)} analyses")
+            tables[sec] = {} if spec.collection else None
+            continue
+        if given is None:
+            if not spec.optional:
+                v.fail(f"{sec}: missing required section [{sec}]")
+            given = {}
+        if spec.collection:
+            if not isinstance(given, dict):
+                v.fail(f"{sec} = {_fmt(given)}: [{sec}] must hold named tables [{sec}.<name>]")
+            if not given and not spec.optional:
+                v.fail(f"{sec}: needs at least one [{sec}.<name>] table")
+            tables[sec] = {n: v.table(f"{sec}.{n}", spec, t, name=n) for n, t in given.items()}
+        else:
+            tables[sec] = v.table(sec, spec, given)
+    _cross_checks(tables, v)
+    if tables["steps"]:
+        tables["steps"] = dict(sorted(tables["steps"].items(), key=lambda kv: kv[1].end))
+    return tables
+
+
+def _cross_checks(t: dict[str, Any], v: _Validator):
+    """Rules between keys (each message names the keys)."""
+    name = t["scene"].name
+    if not name.strip() or name.strip() in (".", "..") or any(c in name for c in "/\\\0"):
+        v.fail(f"scene.name = {_fmt(name)}: must be a non-empty name without / or \\ (it names the "
+               f"default output directory results/<name>)")
+    ana, explicit = t["analysis"], v.analysis == "explicit"
+    if not explicit and ana.min_increment > ana.max_increment:
+        v.fail(f"analysis.min_increment = {_fmt(ana.min_increment)} is out of range: must not exceed "
+               f"analysis.max_increment = {_fmt(ana.max_increment)}")
+    mats = t["materials"]
+    if len(mats) > 1:
+        for n, m in mats.items():
+            if m.regions is None:
+                v.fail(f"materials.{n}.regions is missing: required when there are several materials")
+        seen: dict[str, str] = {}
+        for n, m in mats.items():
+            for r in m.regions:
+                if r in seen:
+                    v.fail(f"materials.{n}.regions: region {r!r} is also in materials.{seen[r]}.regions "
+                           f"(materials must not overlap)")
+                seen[r] = n
+    for n, m in mats.items():
+        if explicit and m.density is None:
+            v.fail(f"materials.{n}.density is missing: required in explicit analyses [kg/m³]")
+        h = m.hardening
+        if h is not None and h.law == "table":
+            eps, sig, d = h.strain, h.stress, f"materials.{n}.hardening"
+            if len(eps) < 2:
+                v.fail(f"{d}.strain has {len(eps)} entries: must have at least 2")
+            if eps[0] != 0.0:
+                v.fail(f"{d}.strain = {list(eps)} is not allowed: the first entry must be 0")
+            if any(b <= a for a, b in zip(eps, eps[1:])):
+                v.fail(f"{d}.strain = {list(eps)} is not allowed: must be strictly increasing")
+            if len(sig) != len(eps):
+                v.fail(f"{d}.stress has {len(sig)} entries: must have as many as {d}.strain ({len(eps)})")
+            if any(x < 0 for x in sig):
+                v.fail(f"{d}.stress = {list(sig)} is out of range: each entry must be >= 0")
+    for n, b in t["boundary"].items():
+        d = f"boundary.{n}"
+        if b.type == "velocity" and not explicit:
+            v.fail(f"{d}.type = 'velocity' is only for explicit analyses (static: type = 'displacement')")
+        if b.type == "axis" and t["mesh"].geometry != "axisymmetric":
+            v.fail(f"{d}.type = 'axis' needs mesh.geometry = 'axisymmetric'")
+        comps = b.get("components")
+        if comps is not None:
+            for c in comps:
+                if c not in COMPONENTS:
+                    v.fail(f"{d}.components = {list(comps)}: {c!r} is not a component: must be one of "
+                           f"{', '.join(COMPONENTS)}")
+            if len(set(COMPONENTS[c] for c in comps)) != len(comps):
+                v.fail(f"{d}.components = {list(comps)} names a component twice")
+            val = b.get("value")
+            if isinstance(val, tuple) and len(val) != len(comps):
+                v.fail(f"{d}.value has {len(val)} entries: must have one per component ({len(comps)}) or be one value")
+        if b.type == "pressure" and isinstance(b.value, tuple):
+            v.fail(f"{d}.value must be one value (the pressure)")
+    for n, iv in t["initial_velocity"].items():
+        val = iv.value
+        if not isinstance(val, tuple) or len(val) != 2:
+            v.fail(f"initial_velocity.{n}.value must be a list of 2 values [vx, vy] [m/s]")
+        for i, x in enumerate(val):
+            if x.depends_on_time:
+                v.fail(f"initial_velocity.{n}.value[{i}] may depend on x, y, z only, not on t")
+    tools = t["tools"]
+    for n, c in t["contact"].items():
+        if c.tool not in tools:
+            v.fail(f"contact.{n}.tool = {c.tool!r} is not a tool: tools are {', '.join(tools) or 'none'}")
+    column_count = {n: (0 if o.quantity == "thickness" else 5 if o.quantity == "energy" and o.energy == "all"
+                        else 1) for n, o in t["outputs"].items()}
+    # expressions may name the one-column outputs declared before them; at_max_of any one-column one
+    single_columns = [n for n, o in t["outputs"].items() if column_count[n] == 1 and o.quantity != "expression"]
+    for n, o in t["outputs"].items():
+        d = f"outputs.{n}"
+        if o.quantity in ("tool_force", "tool_displacement") and o.tool not in tools:
+            v.fail(f"{d}.tool = {o.tool!r} is not a tool: tools are {', '.join(tools) or 'none'}")
+        if o.quantity == "thickness" and o.group is None:
+            v.fail(f"{d}.group is missing: required for a thickness profile")
+        if o.quantity == "reaction" and o.group is None:
+            v.fail(f"{d}.group is missing: required for a reaction")
+        for s in o.summary:
+            if s not in ("final", "max", "min"):
+                v.fail(f"{d}.summary = {list(o.summary)}: entries must be final, max or min")
+        if o.quantity == "energy" and not explicit:
+            v.fail(f"{d}: energies are recorded in explicit analyses only")
+        if o.quantity == "expression":
+            try:
+                parse_expression(o.expression, f"{d}.expression", symbols=("t",) + tuple(single_columns))
+            except ExpressionError as e:
+                v.fail(str(e))
+        if o.at_max_of is not None and (column_count.get(o.at_max_of) != 1 or o.at_max_of == n
+                                        or column_count[n] != 1):
+            ones = [m for m, c in column_count.items() if c == 1 and m != n]
+            v.fail(f"{d}.at_max_of = {o.at_max_of!r}: must name another one-column output (and this output "
+                   f"must have one column); one-column outputs: {', '.join(ones) or 'none'}")
+        if o.quantity == "expression":
+            single_columns.append(n)
+    for n, p in t["plots"].items():
+        if p.type == "profile" and (p.output not in t["outputs"] or t["outputs"][p.output].quantity != "thickness"):
+            v.fail(f"plots.{n}.output = {p.output!r} is not a thickness output")
+    ends = [s.end for s in t["steps"].values()]
+    if len(set(ends)) != len(ends):
+        v.fail("steps: two steps have the same end")
+
+
