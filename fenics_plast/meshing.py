@@ -123,6 +123,13 @@ def mesh_from_file(comm, path, parameters=None, refine=1, gdim=2):
                 if not any(d == 2 for d, _ in groups.values()):
                     raise MeshError(f"{path.name} has no physical surface: name the body's region(s) with "
                                     f"Physical Surface(\"name\") so that its cells are kept")
+                owner = {}          # a surface in two physical surfaces would duplicate its cells
+                for name, (dim, tag) in groups.items():
+                    for e in (gmsh.model.getEntitiesForPhysicalGroup(2, tag) if dim == 2 else ()):
+                        if e in owner:
+                            raise MeshError(f"{path.name}: physical surfaces {owner[e]!r} and {name!r} share "
+                                            f"surface {e}: regions must not overlap (a cell lies in one region)")
+                        owner[e] = name
             except MeshError as e:
                 error = str(e)
             except Exception as e:     # gmsh raises plain Exception with its last error
