@@ -32,8 +32,8 @@ def rotation(axis, angle):
     return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
 
 
-def closed_form_kirchhoff(model, F, lam, mu):
-    """tau = d psi/d e of psi = lam/2 (tr e)^2 + mu e:e, by complex step on psi, for strain e(F)."""
+def closed_form_kirchhoff(model, F, lmbda, mu):
+    """tau = d psi/d e of psi = lmbda/2 (tr e)^2 + mu e:e, by complex step on psi, for strain e(F)."""
     b = F @ F.T
     if model == "seed":
         e = 0.5 * (np.eye(3) - np.linalg.inv(b))  # Almansi
@@ -42,7 +42,7 @@ def closed_form_kirchhoff(model, F, lam, mu):
         e = Q @ np.diag(0.5 * np.log(w)) @ Q.T  # Hencky
 
     def psi(e):
-        return 0.5 * lam * np.trace(e) ** 2 + mu * np.sum(e * e)
+        return 0.5 * lmbda * np.trace(e) ** 2 + mu * np.sum(e * e)
 
     tau = np.zeros((3, 3))
     for i in range(3):
@@ -57,12 +57,12 @@ def closed_form_kirchhoff(model, F, lam, mu):
 def test_elastic_response_is_the_energy_derivative_and_path_independent(model):
     rng = np.random.default_rng(1)
     mat = Material(117e3, 0.35, None, model)
-    lam, mu = mat.lame
+    lmbda, mu = mat.lame
     F = random_F(rng, 8, 0.25)  # general, finite F (stretches ~ 0.5..1.5, rotations)
     F[np.linalg.det(F) < 0.2] = np.eye(3)
     tau, _, eqps, _ = mat.update(F, np.repeat(np.eye(3)[None], 8, 0), np.zeros(8))
     for k in range(8):
-        ref = closed_form_kirchhoff(model, F[k], lam, mu)
+        ref = closed_form_kirchhoff(model, F[k], lmbda, mu)
         assert np.linalg.norm(tau[k] - ref) <= 1e-10 * np.linalg.norm(ref)
     # hyperelastic: no rate integration, 20 sub-steps give the same stress
     binv, ep, Fold = np.repeat(np.eye(3)[None], 8, 0), np.zeros(8), np.repeat(np.eye(3)[None], 8, 0)

@@ -31,7 +31,7 @@ def run_both(mat, Fu, binv_n, eqps_n, tangent, chunk):
 
 def close(x, y, rtol=1e-11):
     """Per point: |x - y| <= rtol max|y| (the scale of the point's tensor). The Almansi stress
-    tau = lam tr(e) I + 2 mu e, e = (I - b)/2 ~ 1e-3, loses ~3 digits to cancellation: two correct
+    tau = lmbda tr(e) I + 2 mu e, e = (I - b)/2 ~ 1e-3, loses ~3 digits to cancellation: two correct
     implementations with different rounding (numpy vs numba with FMA contraction) differ by ~1e-12."""
     n = x.shape[0]
     x, y = x.reshape(n, -1), y.reshape(n, -1)

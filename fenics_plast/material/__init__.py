@@ -51,29 +51,29 @@ class Material:
     @property
     def lame(self) -> tuple[float, float]:
         """Lamé constants (lambda, mu) [MPa]."""
-        lam = self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
-        return lam, self.E / (2 * (1 + self.nu))
+        lmbda = self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
+        return lmbda, self.E / (2 * (1 + self.nu))
 
     def wave_speed(self, density: float) -> float:
         """Dilatational wave speed sqrt((lambda + 2 mu)/rho) [mm/s] for density in tonne/mm^3."""
-        lam, mu = self.lame
-        return float(np.sqrt((lam + 2 * mu) / density))
+        lmbda, mu = self.lame
+        return float(np.sqrt((lmbda + 2 * mu) / density))
 
     def kernel_args(self) -> tuple:
-        """(model, lam, mu, law, hardening params, yield_tol): the trailing arguments of
+        """(model, lmbda, mu, law, hardening params, yield_tol): the trailing arguments of
         :func:`fenics_plast.material.kernels.update_points` after the state arrays, for callers that
         run the update inside their own compiled loop."""
-        lam, mu = self.lame
-        return self._model, lam, mu, self._law, self._hp, self.yield_tol
+        lmbda, mu = self.lame
+        return self._model, lmbda, mu, self._law, self._hp, self.yield_tol
 
     def update_into(self, Fu, binv_n, eqps_n, tau, binv, eqps, a=None) -> int:
         """Constitutive update of n points into preallocated arrays (see :meth:`update`).
 
         Returns the number of points that yielded.
         """
-        model, lam, mu, law, hp, tol = self.kernel_args()
+        model, lmbda, mu, law, hp, tol = self.kernel_args()
         want = a is not None
-        return kernels.update_points(model, Fu, binv_n, eqps_n, lam, mu, law, hp, tol, tau, binv, eqps,
+        return kernels.update_points(model, Fu, binv_n, eqps_n, lmbda, mu, law, hp, tol, tau, binv, eqps,
                                      a if want else self._no_tangent, want)
 
     def update(self, Fu, binv_n, eqps_n, tangent: bool = True):
@@ -99,8 +99,8 @@ class Material:
         """Stored elastic energy per reference volume [MPa = mJ/mm^3], shape (n,)."""
         binv = np.ascontiguousarray(binv, dtype=float).reshape(-1, 3, 3)
         out = np.empty(binv.shape[0])
-        lam, mu = self.lame
-        kernels.energy_points(self._model, binv, lam, mu, out)
+        lmbda, mu = self.lame
+        kernels.energy_points(self._model, binv, lmbda, mu, out)
         return out
 
     def __repr__(self):

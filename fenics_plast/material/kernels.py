@@ -13,15 +13,15 @@ Elastic predictor (both models)
 
 Seed model (``SEED``): Almansi elastic strain, quadratic energy
     ``e   = 1/2 (I - bt)``                                             (Table 1)
-    ``psi = 1/2 lam (tr e)^2 + mu e:e``                                (9)
-    ``tau = d psi / d e = lam tr(e) I + 2 mu e``                       (7)
+    ``psi = 1/2 lmbda (tr e)^2 + mu e:e``                                (9)
+    ``tau = d psi / d e = lmbda tr(e) I + 2 mu e``                       (7)
     plastic corrector: ``binv = bt + 2 dgamma n``, ``n = 3/2 s/q``     (14)
     The additive update of b_e^-1 with a deviatoric n does not keep det b_e^-1: plastic
     flow changes the volume (first order in the increment, ~1 % per unit strain in copper).
 
 Isochoric variant (``ISOCHORIC``, Simo 1992): logarithmic elastic strain, exponential map
     ``eps = 1/2 ln b_e = -1/2 ln bt``  (spectral decomposition of bt)
-    ``psi = 1/2 lam (tr eps)^2 + mu eps:eps``, ``tau = lam tr(eps) I + 2 mu eps``
+    ``psi = 1/2 lmbda (tr eps)^2 + mu eps:eps``, ``tau = lmbda tr(eps) I + 2 mu eps``
     plastic corrector: ``eps = eps_tr - dgamma n``  <=>  ``binv = exp(2 dgamma n) bt``
     (coaxial), exactly volume preserving since tr n = 0.
 
@@ -32,9 +32,9 @@ Both: von Mises yield on the Kirchhoff stress, ``f = q - sigma_y(eps_p)``,
 J_e = 1 + O(1e-3) and, unlike sigma, tau does not depend on the spurious plastic dilatation.)
 
 Algorithmic modulus w.r.t. the trial strain (same form for both models; Simo & Hughes, Box 3.2):
-    ``D = kappa I(x)I + 2 mu theta I_dev - c  N(x)N``
-    ``theta = 1 - 3 mu dgamma / q_tr``, ``c = 6 mu^2 (1/(3 mu + H) - dgamma/q_tr)``,
-    ``N = s_tr/|s_tr|``, ``H = sigma_y'``  (elastic: theta = 1, c = 0)
+    ``D = kappa I(x)I + 2 mu rr_factor I_dev - c  N(x)N``   (rr_factor: the radial-return factor)
+    ``rr_factor = 1 - 3 mu dgamma / q_tr``, ``c = 6 mu^2 (1/(3 mu + H) - dgamma/q_tr)``,
+    ``N = s_tr/|s_tr|``, ``H = sigma_y'``  (elastic: rr_factor = 1, c = 0)
 Spatial tangent, from ``delta bt = -(l^T bt + bt l)``, ``l = delta F F^-1``:
     seed:      ``a_ijkl = sum_m D_ijlm bt_mk``
     isochoric: ``a_ijkl = sum_m (D : dln(bt)/dbt)_ijlm bt_mk``, built in the eigenbasis of bt.
@@ -113,8 +113,8 @@ def _eigh3(S, w, Q):
         # block diagonal (axisymmetric and plane-strain states): the first Jacobi rotation below
         # is exact; done here without the sweep loop (same operations, same result, 2x cheaper)
         if abs(a01) > 1e-17 * scale:
-            theta = (a11 - a00) / (2.0 * a01)
-            t = (1.0 if theta >= 0.0 else -1.0) / (abs(theta) + math.sqrt(theta * theta + 1.0))
+            cot2 = (a11 - a00) / (2.0 * a01)
+            t = (1.0 if cot2 >= 0.0 else -1.0) / (abs(cot2) + math.sqrt(cot2 * cot2 + 1.0))
             c = 1.0 / math.sqrt(t * t + 1.0)
             s = t * c
             a00, a11 = a00 - t * a01, a11 + t * a01
@@ -137,8 +137,8 @@ def _eigh3(S, w, Q):
                 apq, app, aqq = a12, a11, a22
             if apq == 0.0:
                 continue
-            theta = (aqq - app) / (2.0 * apq)
-            t = (1.0 if theta >= 0.0 else -1.0) / (abs(theta) + math.sqrt(theta * theta + 1.0))
+            cot2 = (aqq - app) / (2.0 * apq)
+            t = (1.0 if cot2 >= 0.0 else -1.0) / (abs(cot2) + math.sqrt(cot2 * cot2 + 1.0))
             c = 1.0 / math.sqrt(t * t + 1.0)
             s = t * c
             # rotate the symmetric matrix held in (a00, a11, a22, a01, a02, a12)
@@ -200,7 +200,7 @@ def _plastic_multiplier(q_tr, eps_n, mu, law, hp):
 def _return_map(q_tr, eps_n, mu, law, hp, yield_tol):
     """Von Mises check and radial return for a trial equivalent stress q_tr [MPa].
 
-    Returns (dgamma, theta, c) of the algorithmic modulus; dgamma = 0 if elastic.
+    Returns (dgamma, rr_factor, c) of the algorithmic modulus; dgamma = 0 if elastic.
     """
     if law == ELASTIC:
         return 0.0, 1.0, 0.0
@@ -213,13 +213,13 @@ def _return_map(q_tr, eps_n, mu, law, hp, yield_tol):
         dg = (q_tr - sy_n) / (3.0 * mu + h)
     else:
         dg, h = _plastic_multiplier(q_tr, eps_n, mu, law, hp)
-    theta = 1.0 - 3.0 * mu * dg / q_tr
+    rr_factor = 1.0 - 3.0 * mu * dg / q_tr
     c = 6.0 * mu * mu * (1.0 / (3.0 * mu + h) - dg / q_tr)
-    return dg, theta, c
+    return dg, rr_factor, c
 
 
 @_njit
-def _seed_points(Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_tangent, bt, nb, eqps):
+def _seed_points(Fu, Bn, eps_n, lmbda, mu, law, hp, tol, tau, Bout, a, want_tangent, bt, nb, eqps):
     """Seed model for all points: reads Fu, Bn = binv_n, eps_n; writes tau, Bout = binv, eqps, a.
 
     The loop over points lives here, not in the caller: a call per point costs more than the
@@ -232,16 +232,16 @@ def _seed_points(Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_tangen
         ia = q if want_tangent else 0
         # elastic predictor (11)
         bt00, bt01, bt02, bt11, bt12, bt22 = _predictor(Fu, Bn, q)
-        # Almansi strain and trial Kirchhoff stress (7), (9): e = 1/2 (I - bt), tau = lam tr(e) I + 2 mu e
+        # Almansi strain and trial Kirchhoff stress (7), (9): e = 1/2 (I - bt), tau = lmbda tr(e) I + 2 mu e
         tr_e = 0.5 * (3.0 - bt00 - bt11 - bt22)
-        p = (lam + 2.0 * mu / 3.0) * tr_e  # Kirchhoff mean stress
+        p = (lmbda + 2.0 * mu / 3.0) * tr_e  # Kirchhoff mean stress
         s00, s11, s22 = -mu * bt00 + mu, -mu * bt11 + mu, -mu * bt22 + mu  # 2 mu e
         s01, s02, s12 = -mu * bt01, -mu * bt02, -mu * bt12
         mean = (s00 + s11 + s22) / 3.0
         s00, s11, s22 = s00 - mean, s11 - mean, s22 - mean  # s = dev(2 mu e)
         ss = s00 * s00 + s11 * s11 + s22 * s22 + 2.0 * (s01 * s01 + s02 * s02 + s12 * s12)  # s:s
         q_tr = math.sqrt(1.5 * ss)
-        dg, theta, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
+        dg, rr_factor, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
         eqps[q] = eps_n[q] + dg
         nplastic += dg > 0.0
         # plastic corrector (14): binv = bt + 2 dg n,  n = 3/2 s_tr/q_tr;  tau = tau_tr - 2 mu dg n
@@ -257,10 +257,10 @@ def _seed_points(Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_tangen
         tau[q, 1, 2] = tau[q, 2, 1] = t * s12
         if not want_tangent:
             continue
-        # a_ijkl = (kappa - 2 mu theta/3) d_ij bt_lk + mu theta (d_il bt_jk + d_jl bt_ik) - c N_ij (N bt)_lk
-        kap = lam + 2.0 * mu / 3.0
-        c1 = kap - 2.0 * mu * theta / 3.0
-        c2 = mu * theta
+        # a_ijkl = (kappa - 2 mu rr_factor/3) d_ij bt_lk + mu rr_factor (d_il bt_jk + d_jl bt_ik) - c N_ij (N bt)_lk
+        kap = lmbda + 2.0 * mu / 3.0
+        c1 = kap - 2.0 * mu * rr_factor / 3.0
+        c2 = mu * rr_factor
         bt[0, 0], bt[1, 1], bt[2, 2] = bt00, bt11, bt22
         bt[0, 1] = bt[1, 0] = bt01
         bt[0, 2] = bt[2, 0] = bt02
@@ -318,7 +318,7 @@ def _spectral(Q, v0, v1, v2, out, q):
 
 
 @_njit
-def _isochoric_points(Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_tangent, bt, Q, beta, dtau, eqps):
+def _isochoric_points(Fu, Bn, eps_n, lmbda, mu, law, hp, tol, tau, Bout, a, want_tangent, bt, Q, beta, dtau, eqps):
     """Isochoric (exponential map, logarithmic strain) model for all points (as _seed_points)."""
     nplastic = 0
     for q in range(Fu.shape[0]):
@@ -329,13 +329,13 @@ def _isochoric_points(Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_t
         # principal logarithmic elastic strains eps_A = -1/2 ln beta_A and Kirchhoff stresses
         e0, e1, e2 = -0.5 * math.log(beta[0]), -0.5 * math.log(beta[1]), -0.5 * math.log(beta[2])
         tr_e = e0 + e1 + e2
-        p = (lam + 2.0 * mu / 3.0) * tr_e
+        p = (lmbda + 2.0 * mu / 3.0) * tr_e
         # principal trial deviator s_A
         s0 = 2.0 * mu * (e0 - tr_e / 3.0)
         s1 = 2.0 * mu * (e1 - tr_e / 3.0)
         s2 = 2.0 * mu * (e2 - tr_e / 3.0)
         q_tr = math.sqrt(1.5 * (s0 * s0 + s1 * s1 + s2 * s2))
-        dg, theta, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
+        dg, rr_factor, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
         eqps[q] = eps_n[q] + dg
         nplastic += dg > 0.0
         fac = 1.5 * dg / q_tr if dg > 0.0 else 0.0  # n_A = 3/2 s_A / q_tr
@@ -354,7 +354,7 @@ def _isochoric_points(Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_t
         # tangent, built in the eigenbasis of bt for each unit l = e_k (x) e_l:
         #   delta eps'_AA = Q_kA Q_lA ;  delta eps'_AB = g_AB (beta_B Q_lA Q_kB + beta_A Q_kA Q_lB)/2
         #   delta tau' = D' delta eps' ;  a_ijkl = (Q delta tau' Q^T)_ij
-        kap = lam + 2.0 * mu / 3.0
+        kap = lmbda + 2.0 * mu / 3.0
         nrm = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
         N0 = s0 / nrm if nrm > 0.0 else 0.0
         N1 = s1 / nrm if nrm > 0.0 else 0.0
@@ -369,14 +369,14 @@ def _isochoric_points(Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_t
                 d2 = Q[k, 2] * Q[l, 2]
                 tr = d0 + d1 + d2
                 nd = c * (N0 * d0 + N1 * d1 + N2 * d2)
-                vol = kap * tr - 2.0 * mu * theta * tr / 3.0
-                dtau[0, 0] = vol + 2.0 * mu * theta * d0 - nd * N0
-                dtau[1, 1] = vol + 2.0 * mu * theta * d1 - nd * N1
-                dtau[2, 2] = vol + 2.0 * mu * theta * d2 - nd * N2
-                # shear: 2 mu theta delta eps'_AB ; the symmetric off-diagonal pair shares the value
-                v01 = mu * theta * g01 * (beta[1] * Q[l, 0] * Q[k, 1] + beta[0] * Q[k, 0] * Q[l, 1])
-                v02 = mu * theta * g02 * (beta[2] * Q[l, 0] * Q[k, 2] + beta[0] * Q[k, 0] * Q[l, 2])
-                v12 = mu * theta * g12 * (beta[2] * Q[l, 1] * Q[k, 2] + beta[1] * Q[k, 1] * Q[l, 2])
+                vol = kap * tr - 2.0 * mu * rr_factor * tr / 3.0
+                dtau[0, 0] = vol + 2.0 * mu * rr_factor * d0 - nd * N0
+                dtau[1, 1] = vol + 2.0 * mu * rr_factor * d1 - nd * N1
+                dtau[2, 2] = vol + 2.0 * mu * rr_factor * d2 - nd * N2
+                # shear: 2 mu rr_factor delta eps'_AB ; the symmetric off-diagonal pair shares the value
+                v01 = mu * rr_factor * g01 * (beta[1] * Q[l, 0] * Q[k, 1] + beta[0] * Q[k, 0] * Q[l, 1])
+                v02 = mu * rr_factor * g02 * (beta[2] * Q[l, 0] * Q[k, 2] + beta[0] * Q[k, 0] * Q[l, 2])
+                v12 = mu * rr_factor * g12 * (beta[2] * Q[l, 1] * Q[k, 2] + beta[1] * Q[k, 1] * Q[l, 2])
                 dtau[0, 1] = v01
                 dtau[1, 0] = v01
                 dtau[0, 2] = v02
@@ -396,28 +396,27 @@ def _isochoric_points(Fu, Bn, eps_n, lam, mu, law, hp, tol, tau, Bout, a, want_t
 
 
 @_njit
-def update_points(model, Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, binv, eqps, a, want_tangent):
+def update_points(model, Fu, binv_n, eqps_n, lmbda, mu, law, hp, yield_tol, tau, binv, eqps, a, want_tangent):
     """Update n points: Fu, binv_n (n,3,3), eqps_n (n,) -> tau, binv (n,3,3), eqps (n,), a (n,3,3,3,3).
 
     a is ignored (may be a dummy (1,3,3,3,3) array) when want_tangent is False.
     binv may be binv_n and eqps may be eqps_n (update in place): each point is read before it is written.
     Returns the number of points that yielded in this update.
     """
-    n = Fu.shape[0]
     bt = np.empty((3, 3))
     Q = np.empty((3, 3))
     beta = np.empty(3)
     dtau = np.empty((3, 3))
     nb = np.empty((3, 3))
     if model == SEED:
-        return _seed_points(Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, binv, a, want_tangent,
+        return _seed_points(Fu, binv_n, eqps_n, lmbda, mu, law, hp, yield_tol, tau, binv, a, want_tangent,
                             bt, nb, eqps)
-    return _isochoric_points(Fu, binv_n, eqps_n, lam, mu, law, hp, yield_tol, tau, binv, a, want_tangent,
+    return _isochoric_points(Fu, binv_n, eqps_n, lmbda, mu, law, hp, yield_tol, tau, binv, a, want_tangent,
                              bt, Q, beta, dtau, eqps)
 
 
 @_njit
-def energy_points(model, binv, lam, mu, out):
+def energy_points(model, binv, lmbda, mu, out):
     """Stored elastic energy psi [MPa = mJ/mm^3 of reference volume] of n points, eq. (9)."""
     Q = np.empty((3, 3))
     beta = np.empty(3)
@@ -437,4 +436,4 @@ def energy_points(model, binv, lam, mu, out):
                 e[A] = -0.5 * math.log(beta[A])
             tr = e[0] + e[1] + e[2]
             ee = e[0] ** 2 + e[1] ** 2 + e[2] ** 2
-        out[q] = 0.5 * lam * tr * tr + mu * ee
+        out[q] = 0.5 * lmbda * tr * tr + mu * ee

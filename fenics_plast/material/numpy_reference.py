@@ -8,7 +8,7 @@ temporaries stay in cache), with the closed-form radial return of linear hardeni
 
     ``Fi  = Fu^-1``                                              (cofactors)
     ``bt  = Fi^T binv_n Fi``                                     (11)
-    ``e   = 1/2 (I - bt)``,  ``tau_tr = lam tr(e) I + 2 mu e``   (7), (9)
+    ``e   = 1/2 (I - bt)``,  ``tau_tr = lmbda tr(e) I + 2 mu e``   (7), (9)
     ``s   = dev tau_tr = -mu dev bt``,  ``q_tr = sqrt(3/2 s:s)``
     ``f   = q_tr - (sigma_0 + H eps_n)``; yielding when ``f > yield_tol sigma_y``
     ``dg  = f / (3 mu + H)``                                     (linear law, closed form)
@@ -46,7 +46,7 @@ def _inverse3(A, out):
     return out
 
 
-def update_seed_linear(Fu, binv_n, eqps_n, lam, mu, sigma_0, H, yield_tol, tau, binv, eqps, a=None,
+def update_seed_linear(Fu, binv_n, eqps_n, lmbda, mu, sigma_0, H, yield_tol, tau, binv, eqps, a=None,
                        chunk: int = 4096, plastic: bool = True) -> int:
     """Seed model, linear hardening sigma_y = sigma_0 + H eps_p, on n points (see the module docstring).
 
@@ -55,7 +55,7 @@ def update_seed_linear(Fu, binv_n, eqps_n, lam, mu, sigma_0, H, yield_tol, tau, 
     Returns the number of points that yielded.
     """
     n = Fu.shape[0]
-    kap = lam + 2.0 * mu / 3.0
+    kap = lmbda + 2.0 * mu / 3.0
     nplastic = 0
     m = min(chunk, n)
     Fi = np.empty((m, 3, 3))
@@ -120,12 +120,12 @@ def update_material(mat, Fu, binv_n, eqps_n, tau, binv, eqps, a=None, chunk: int
     """:meth:`Material.update_into` for a seed-model Material with linear (or no) hardening."""
     if mat.model != "seed":
         raise ValueError(f"numpy reference implements the seed model only, got {mat.model!r}")
-    lam, mu = mat.lame
+    lmbda, mu = mat.lame
     h = mat.hardening
     if h is None:
-        return update_seed_linear(Fu, binv_n, eqps_n, lam, mu, 0.0, 0.0, mat.yield_tol, tau, binv, eqps, a,
+        return update_seed_linear(Fu, binv_n, eqps_n, lmbda, mu, 0.0, 0.0, mat.yield_tol, tau, binv, eqps, a,
                                   chunk=chunk, plastic=False)
     if h.law != "linear":
         raise ValueError(f"numpy reference implements linear hardening only, got {h.law!r}")
-    return update_seed_linear(Fu, binv_n, eqps_n, lam, mu, float(h.params[0]), float(h.params[1]),
+    return update_seed_linear(Fu, binv_n, eqps_n, lmbda, mu, float(h.params[0]), float(h.params[1]),
                               mat.yield_tol, tau, binv, eqps, a, chunk=chunk)

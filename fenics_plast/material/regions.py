@@ -98,7 +98,7 @@ class MaterialRegions:
         for k, c in enumerate(cells):
             self.cell_material[c] = k
         self.cells = [np.sort(c) for c in cells]
-        args = [m.kernel_args() for m in self.materials]          # (model, lam, mu, law, hp, tol)
+        args = [m.kernel_args() for m in self.materials]          # (model, lmbda, mu, law, hp, tol)
         width = max(a[4].size for a in args)
         hps = np.zeros((len(args), width))
         for k, a in enumerate(args):
@@ -132,7 +132,7 @@ class MaterialRegions:
 
     def kernel_args(self) -> tuple:
         """Per-material tables in the order of :meth:`Material.kernel_args`: models (nmat,) int64,
-        lam, mu (nmat,) [MPa], hardening codes (nmat,) int64, hardening parameters (nmat, k)
+        lmbda, mu (nmat,) [MPa], hardening codes (nmat,) int64, hardening parameters (nmat, k)
         (rows padded with zeros), yield tolerances (nmat,)."""
         return self._tables
 

@@ -204,13 +204,13 @@ def _force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f):
 
 
 @_njit
-def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lam, mu, law, hp, yield_tol, regions,
+def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, law, hp, yield_tol, regions,
                    binv, eqps, tau, Fu, Finv, factor, theta, f):
     """Kinematics, material update and commit, nodal internal force, in one call.
 
     u, u_n : (2 n_nodes,) current and previous displacement (owned + ghost) [mm].
     cell_dofs : (nc, 4) node indices of the owned cells (basix order).
-    model, lam, mu, law, hp, yield_tol : ``Material.kernel_args()`` (one material), or the
+    model, lmbda, mu, law, hp, yield_tol : ``Material.kernel_args()`` (one material), or the
         per-material tables of ``MaterialRegions.kernel_args()`` together with ``regions``.
     regions : None (one material) or ``MaterialRegions.point_layout(nq)``: the points of each
         material and work arrays (several materials; :func:`fenics_plast.material.regions.update_regions`).
@@ -220,30 +220,30 @@ def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lam, mu, la
     Returns True if the stress and the force are finite.
     """
     _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta)
-    _material_update(regions, model, lam, mu, law, hp, yield_tol, Fu, binv, eqps, tau)
+    _material_update(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, tau)
     return _force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f)
 
 
-def _material_update(regions, model, lam, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
+def _material_update(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
     """Material update and commit of every point (compiled: see the overload below)."""
     raise NotImplementedError("compiled code only")
 
 
 @overload(_material_update)
-def _material_update_impl(regions, model, lam, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
+def _material_update_impl(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
     """Chosen by the type of ``regions`` when numba compiles: None (or left out), one material
     (``kernels.update_points`` over all points, the call of a one-material body); a tuple, several
     materials (:func:`update_regions` with the per-material tables in model..yield_tol)."""
     if isinstance(regions, types.NoneType):
-        def one(regions, model, lam, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
+        def one(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
             no_tangent = np.empty((1, 3, 3, 3, 3))
-            kernels.update_points(model, Fu, binv, eqps, lam, mu, law, hp, yield_tol, tau, binv, eqps,
+            kernels.update_points(model, Fu, binv, eqps, lmbda, mu, law, hp, yield_tol, tau, binv, eqps,
                                   no_tangent, False)
         return one
 
-    def several(regions, model, lam, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
+    def several(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
         no_tangent = np.empty((1, 3, 3, 3, 3))
         order, offsets, Fu_b, B_b, e_b, tau_b = regions
-        update_regions(order, offsets, model, lam, mu, law, hp, yield_tol, Fu, binv, eqps, tau, binv, eqps,
+        update_regions(order, offsets, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, tau, binv, eqps,
                        no_tangent, False, Fu_b, B_b, e_b, tau_b, no_tangent)
     return several
