@@ -282,7 +282,7 @@ class ContactPair:
         """Gaps [mm] at the owned nodes of the pair's facets (current state), numpy (n,)."""
         s = self.contact.solver
         if not hasattr(self, "_nodes"):
-            Vc, vmap = s.V.collapse()
+            Vc, vmap = s.displacement_space()
             facets = self.facet_tags.find(self.tag)
             blocks = fem.locate_dofs_topological(Vc, s.mesh.topology.dim - 1, facets)
             blocks = blocks[blocks < Vc.dofmap.index_map.size_local]

@@ -164,7 +164,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
                converged=True)
     if pairs:
         # the contact terms of the balance (energy_balance_error includes them) and, per pair, the
-        # largest penetration of the run and the penalty's stable-step limit (collective calls)
+        # largest penetration of the run and its penalty; the springs' stable-step limit (collective calls)
         res.update(contact_work_J=e["contact_work"] * 1e-3, contact_stored_J=e["contact_stored"] * 1e-3,
                    tool_work_J=e["tool_work"] * 1e-3, dt_stable_contact_s=solver.contact.dt_stable)
         for name, p in pairs.items():

@@ -32,15 +32,6 @@ def _prescribed(value):
     return lambda X, t: np.asarray(value.evaluate(x=X[0], y=X[1], z=X[2], t=t), dtype=float) * np.ones(X.shape[1])
 
 
-def displacement_space(s):
-    """(the displacement space as a space of its own, the map from its unrolled dofs to the
-    solver's): the collapsed subspace for q1p0 (mixed with the dilatation), the space itself for q1."""
-    if s.mixed:
-        return s.V.collapse()
-    im = s.V.dofmap.index_map
-    return s.V, np.arange((im.size_local + im.num_ghosts) * s.V.dofmap.index_map_bs, dtype=np.int64)
-
-
 def apply_boundary(problem, s, ft, groups):
     """Dirichlet conditions and dead loads of [boundary]; returns {group: set of constrained components}."""
     constrained: dict[str, set] = {}
@@ -51,7 +42,7 @@ def apply_boundary(problem, s, ft, groups):
         where = f"{problem.path}: boundary.{name}"
         if b.type in ("fixed", "axis", "symmetry"):
             comps = (components_of(b) if b.type == "fixed" else
-                     [0] if b.type == "axis" else [symmetry_component(displacement_space(s)[0], ft, tag, where)])
+                     [0] if b.type == "axis" else [symmetry_component(s.displacement_space()[0], ft, tag, where)])
             for c in comps:
                 s.add_dirichlet(c, ft, tag, 0.0)
         elif b.type == "displacement":
@@ -141,8 +132,7 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None) -> Simp
     s.setup()
     reactions = reaction_dofs(problem, s, ft, groups, constrained)
 
-    Vc, vmap = displacement_space(s)
-    vmap = np.asarray(vmap)
+    Vc, vmap = s.displacement_space()
     X = Vc.tabulate_dof_coordinates()[:, :2].copy()
 
     def positions():

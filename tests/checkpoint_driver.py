@@ -73,15 +73,17 @@ def key_coordinates(kind, npz, comm=MPI.COMM_WORLD):
     from dolfinx import fem
 
     from fenics_plast.checkpoint import dof_keys, qp_keys
-    from fenics_plast.material import Hardening, Material
-    from fenics_plast.scene import load_scene
-    from fenics_plast.scenes import bar_tension, taylor_bar
+    from fenics_plast.problem import load_problem
+    from fenics_plast.runner_explicit import build_explicit
+    from fenics_plast.runner_static import build_static
     if kind == "taylor":
-        s = taylor_bar.build(load_scene(REPO / "demos" / "taylor_bar.toml"), comm, log=lambda m: None)
+        s = build_explicit(load_problem(REPO / "demos" / "taylor_bar.toml"), comm).solver
         space = s.V
     else:
-        mat = Material(200e3, 0.3, Hardening("linear", yield_stress=400.0, modulus=100.0))
-        s, _ = bar_tension.build(comm, 6.4, 26.7, 4, 12, 0.018, mat, verbose=False)
+        problem = load_problem(REPO / "demos" / "bar_tension.toml",
+                               ["mesh.parameters.cells_radial=4", "mesh.parameters.cells_axial=12"])
+        s = build_static(problem, comm).solver
+        s.verbose = False
         space = s.W
     keys = dof_keys(space)
     X = np.full((keys.size, 2), np.nan)

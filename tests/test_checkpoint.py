@@ -19,6 +19,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -30,27 +32,30 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import checkpoint_driver  # noqa: E402
 
 COMMON = ["--set", "output.plots=false"]
-# shortened scenes with frequent checkpoints; (scene file, overrides, kill point)
+# shortened scenes with frequent checkpoints; (scene file, overrides, kill point, material name)
 SCENES = {
-    # 141 steps, a checkpoint every 30: killed while writing the 3rd (rank files, no manifest),
-    # after 2.5 us of rows past the 2nd: resumes from step 60
-    "taylor": ("taylor_bar.toml", ["--set", "loading.end_time_us=10", "--set", "output.history_points=21",
-                                   "--set", "output.checkpoint_every=30"], "during"),
-    # 10 increments, a checkpoint every 2: killed right after the 2nd (increment 4)
-    "bar": ("bar_tension.toml", ["--set", "loading.displacement=3", "--set", "solver.increments=8",
-                                 "--set", "output.checkpoint_every=2", "--set", "output.xdmf=false"], "after"),
-    # 27 increments with a cut-back, frictional contact history, two load legs: killed while writing
+    # a checkpoint every 30 steps: killed while writing the 3rd (rank files, no manifest), after
+    # rows past the 2nd: resumes from step 60
+    "taylor": ("taylor_bar.toml", ["--set", "analysis.end_time=10", "--set", "output.history_points=21",
+                                   "--set", "output.checkpoint_every=30"], "during", "copper"),
+    # 3 mm of elongation in 10 increments (max_increment 0.1), a checkpoint every 2: killed right after
+    # the 2nd (increment 4)
+    "bar": ("bar_tension.toml", ["--set", 'boundary.grip.value="1.5 * t"', "--set", "analysis.increments=8",
+                                 "--set", "output.checkpoint_every=2", "--set", "output.xdmf=false"], "after", "steel"),
+    # 24 mm of travel in two steps (to 12 and 24 mm), frictional contact history: killed while writing
     # the 3rd checkpoint (increment 9)
-    "punch": ("punch_stretching.toml", ["--set", "loading.travel=24", "--set", "solver.increments=12",
-                                        "--set", "contact.friction=0.15", "--set", "output.checkpoint_every=3",
-                                        "--set", "output.xdmf=false"], "during"),
+    "punch": ("punch_stretching.toml", ["--set", "tools.punch.path.y=[0.0, 24.0]",
+                                        "--set", "steps.to_20mm.increments=6", "--set", "steps.to_40mm.increments=6",
+                                        "--set", "contact.punch.friction=0.15", "--set", "contact.die.friction=0.15",
+                                        "--set", "output.checkpoint_every=3", "--set", "output.xdmf=false"],
+              "during", "aluminium"),
 }
 TIMING_KEYS = {"wall_time_s", "step_loop_time_s", "time_per_step_s", "setup_time_s", "setup_and_solve_s"}
 MPIRUN = ["/usr/bin/mpirun", "--allow-run-as-root", "-n", "2"]
 
 
 def scene_args(name):
-    f, sets, _ = SCENES[name]
+    f, sets, _, _ = SCENES[name]
     return [str(REPO / "demos" / f), *sets, *COMMON]
 
 
@@ -134,10 +139,11 @@ def test_kill_and_resume_serial(tmp_path, name, capsys):
     hist_before = (res / "history.csv").read_bytes()
     # refused: other scene settings (nothing touched)
     capsys.readouterr()
-    assert checkpoint_driver.run_job(["run", *scene_args(name), "--set", "material.nu=0.31", "--resume", res],
-                                     tmp_path / "bad.npz") == 2
+    material = SCENES[name][3]
+    assert checkpoint_driver.run_job(["run", *scene_args(name), "--set", f"materials.{material}.nu=0.31",
+                                      "--resume", res], tmp_path / "bad.npz") == 2
     err = capsys.readouterr().err
-    assert "material.nu = 0.31 (checkpoint: " in err and "scene settings differ" in err
+    assert f"materials.{material}.nu = 0.31 (checkpoint: " in err and "scene settings differ" in err
     assert (res / "history.csv").read_bytes() == hist_before and not (res / "summary.json").exists()
     # resumed
     assert checkpoint_driver.run_job(["run", *scene_args(name), "--resume", res], tmp_path / "res.npz") == 0
@@ -208,7 +214,12 @@ class _Out:
         self.restored = rows
 
 
-SETTINGS = {"mesh": {"refine": 1}, "material": {"E": 1.0, "nu": 0.3}}
+SETTINGS = {"mesh": {"refine": 1}, "materials": {"steel": {"E": 1.0, "nu": 0.3}}}
+
+
+def fake_scene(settings, analysis="static"):
+    """Stand-in for a Problem: what check_resume reads (its settings and analysis type)."""
+    return SimpleNamespace(analysis=SimpleNamespace(type=analysis), to_dict=lambda: settings)
 
 
 def _state(i):
@@ -218,14 +229,14 @@ def _state(i):
 
 def test_save_prune_and_load(tmp_path):
     out = _Out(tmp_path)
-    c = Checkpointer(tmp_path, None, SETTINGS, "bar_tension", every=1, output=out)
+    c = Checkpointer(tmp_path, None, SETTINGS, "static", every=1, output=out)
     for i in (1, 2, 3):
         out.history_rows.append(dict(step=i, f=0.1 * i))
         c.save(i, solver=_state(i), loop=dict(dl=0.25))
     names = sorted(p.name for p in (tmp_path / "checkpoint").iterdir())
     assert names == ["ckpt_000000002.json", "ckpt_000000002.rank0.npz", "ckpt_000000003.json",
                      "ckpt_000000003.rank0.npz"]
-    r = Checkpointer(tmp_path, None, SETTINGS, "bar_tension", resume=True, output=out)
+    r = Checkpointer(tmp_path, None, SETTINGS, "static", resume=True, output=out)
     st = r.load()
     assert st["counter"] == 3 and st["solver"]["t"] == 1.5
     assert st["solver"]["rows"] == [1, 2.5, "x"] and st["loop"] == {"dl": 0.25}
@@ -245,10 +256,10 @@ def test_save_prune_and_load(tmp_path):
 
 
 def test_fresh_run_clears_and_finished_run_not_resumable(tmp_path, monkeypatch):
-    Checkpointer(tmp_path, None, SETTINGS, "bar_tension", every=1).save(1, solver=_state(1))
-    Checkpointer(tmp_path, None, SETTINGS, "bar_tension", every=1)      # a new run in the same place
+    Checkpointer(tmp_path, None, SETTINGS, "static", every=1).save(1, solver=_state(1))
+    Checkpointer(tmp_path, None, SETTINGS, "static", every=1)      # a new run in the same place
     assert list((tmp_path / "checkpoint").iterdir()) == []
-    scene = type("S", (), {"kind": "bar_tension", "to_dict": lambda self: SETTINGS})()
+    scene = fake_scene(SETTINGS)
     with pytest.raises(CheckpointError, match="no complete checkpoint"):
         ck.check_resume(tmp_path, scene, 1)
     (tmp_path / "summary.json").write_text("{}")
@@ -258,27 +269,28 @@ def test_fresh_run_clears_and_finished_run_not_resumable(tmp_path, monkeypatch):
 
 
 def test_refusals(tmp_path):
-    c = Checkpointer(tmp_path, None, SETTINGS, "bar_tension", every=1)
+    c = Checkpointer(tmp_path, None, SETTINGS, "static", every=1)
     c.save(5, solver=_state(5))
-    scene = type("S", (), {"kind": "bar_tension", "to_dict": lambda self: SETTINGS})()
+    scene = fake_scene(SETTINGS)
     assert ck.check_resume(tmp_path, scene, 1)["counter"] == 5
     with pytest.raises(CheckpointError, match=r"written by 1 MPI rank\(s\), this run has 2"):
         ck.check_resume(tmp_path, scene, 2)
-    other = type("S", (), {"kind": "bar_tension",
-                           "to_dict": lambda self: {"mesh": {"refine": 2}, "material": {"E": 1.0, "nu": 0.3}}})()
+    other = fake_scene({"mesh": {"refine": 2}, "materials": {"steel": {"E": 1.0, "nu": 0.3}}})
     with pytest.raises(CheckpointError, match=r"mesh.refine = 2 \(checkpoint: 1\)"):
         ck.check_resume(tmp_path, other, 1)
     # output keys that do not change the numbers may differ
-    free = type("S", (), {"kind": "bar_tension", "to_dict": lambda self: dict(
-        SETTINGS, output={"xdmf": False, "checkpoint_every": 7}, scene={"description": "other"})})()
+    free = fake_scene(dict(SETTINGS, output={"xdmf": False, "checkpoint_every": 7}, scene={"description": "other"}))
     assert ck.check_resume(tmp_path, free, 1)["counter"] == 5
+    # a checkpoint of another analysis type
+    with pytest.raises(CheckpointError, match="of a 'static' analysis, the scene's is 'explicit'"):
+        ck.check_resume(tmp_path, fake_scene(SETTINGS, "explicit"), 1)
     m = tmp_path / "checkpoint" / "ckpt_000000005.json"
     d = json.loads(m.read_text())
     d["format"] = ck.FORMAT + 1
     m.write_text(json.dumps(d))
     with pytest.raises(CheckpointError, match="another version of fenics-plast"):
         ck.check_resume(tmp_path, scene, 1)
-    r = Checkpointer(tmp_path, None, SETTINGS, "bar_tension", resume=True)
+    r = Checkpointer(tmp_path, None, SETTINGS, "static", resume=True)
     with pytest.raises(CheckpointError, match="format"):
         r.load()
 

@@ -9,31 +9,51 @@ from pathlib import Path
 
 import pytest
 
-from fenics_plast import cli, scenes
+from fenics_plast import cli
 
 REPO = Path(__file__).resolve().parent.parent
 
-GOOD = """
+# a small static scene (the round bar in tension); the mesh file by absolute path, so that the scene
+# can be written anywhere
+GOOD = f"""
 [scene]
 name = "bar"
-kind = "bar_tension"
+
+[analysis]
+type = "static"
+increments = 4
 
 [mesh]
+file = "{REPO / 'meshes' / 'round_bar.geo'}"
+refine = 1
+
+[mesh.parameters]
 radius = 6.413
-length = 53.334
+length = 26.667
 cells_radial = 2
 cells_axial = 4
 
-[material]
+[materials.steel]
 E = 206.9e3
 nu = 0.29
 
-[material.hardening]
+[materials.steel.hardening]
 law = "linear"
 yield_stress = 450
 
-[loading]
-displacement = 8
+[boundary.axis]
+group = "axis"
+type = "axis"
+
+[boundary.grip]
+group = "top"
+type = "displacement"
+components = ["z"]
+value = "4.0 * t"
+
+[boundary.mid_plane]
+group = "bottom"
+type = "symmetry"
 """
 
 
@@ -44,11 +64,13 @@ def run_cli(*args, cwd=None):
 
 @pytest.mark.parametrize("text, extra, key", [
     ("[scene]\nname = 'x'\nkind = ", [], "TOML syntax"),
-    (GOOD.replace("nu = 0.29", "nu = 0.5"), [], "material.nu"),
-    (GOOD.replace("[loading]", "[loading]\nspeed = 3"), [], "loading.speed"),
-    (GOOD.replace("E = 206.9e3", "E = -1"), [], "material.E"),
-    (GOOD, ["--set", "material.hardening.yield_stress=-3"], "material.hardening.yield_stress"),
+    (GOOD.replace("nu = 0.29", "nu = 0.5"), [], "materials.steel.nu"),
+    (GOOD.replace("[boundary.grip]", "[boundary.grip]\nspeed = 3"), [], "boundary.grip.speed"),
+    (GOOD.replace("E = 206.9e3", "E = -1"), [], "materials.steel.E"),
+    (GOOD, ["--set", "materials.steel.hardening.yield_stress=-3"], "materials.steel.hardening.yield_stress"),
     (GOOD, ["--set", "mesh.refine=two"], "mesh.refine"),
+    # the mesh's groups are checked before anything is written
+    (GOOD.replace('group = "top"', 'group = "upper"'), [], "boundary.grip.group = 'upper'"),
 ])
 def test_bad_scene_exit_2_nothing_written(tmp_path, text, extra, key):
     scene = tmp_path / "bad.toml"
@@ -66,7 +88,7 @@ def test_point_bad_scene_exit_2(tmp_path):
     scene = tmp_path / "bad.toml"
     scene.write_text(GOOD.replace("nu = 0.29", "nu = 0.7"))
     r = run_cli("point", scene, "--path", "uniaxial", "--to", "0.5", "--steps", "10", cwd=tmp_path)
-    assert r.returncode == 2 and "material.nu" in r.stderr
+    assert r.returncode == 2 and "materials.steel.nu" in r.stderr
 
 
 def test_point_no_lateral_equilibrium_exit_1(tmp_path):
@@ -76,7 +98,7 @@ def test_point_no_lateral_equilibrium_exit_1(tmp_path):
     scene = tmp_path / "good.toml"
     scene.write_text(GOOD)
     out = tmp_path / "p.csv"
-    r = run_cli("point", scene, "--path", "uniaxial", "--to", "-2", "--steps", "1", "--set", "material.model=seed",
+    r = run_cli("point", scene, "--path", "uniaxial", "--to", "-2", "--steps", "1", "--set", "materials.steel.model=seed",
                 "--out", out, cwd=tmp_path)
     assert r.returncode == 1, r.stdout + r.stderr
     assert r.stderr.startswith("error: ") and r.stderr.count("\n") == 1, r.stderr
@@ -96,11 +118,14 @@ FAKE_RUNNER = '''
 import numpy as np
 from fenics_plast.errors import RunError
 
-def run(scene, output):
+def read_mesh(problem, comm):
+    return None
+
+def run(problem, output, mesh_data=None):
     for i in range(3):
         output.history(step=i, load_N=np.float64(10.0 * i))
     output.write_csv("profile", {"z_mm": np.arange(3.0), "r_mm": np.ones(3)})
-    if scene.mesh.refine == 2:
+    if problem.mesh.refine == 2:
         raise RunError("no convergence at load fraction 0.5", {"last_load_fraction": 0.5})
     return {"cells": np.int64(8), "dofs": 30, "converged": True, "final_radius_mm": np.float32(4.5),
             "curve": np.array([1.0, 2.0])}
@@ -109,11 +134,16 @@ def run(scene, output):
 
 @pytest.fixture
 def fake_runner(tmp_path, monkeypatch):
+    """fenics_plast.runner's read_mesh and run replaced by stand-ins (no mesh, no solver)."""
     pytest.importorskip("mpi4py")
     mod = tmp_path / "fake_runner_mod.py"
     mod.write_text(FAKE_RUNNER)
     monkeypatch.syspath_prepend(str(tmp_path))
-    monkeypatch.setitem(scenes.RUNNERS, "bar_tension", "fake_runner_mod:run")
+    import fake_runner_mod
+
+    from fenics_plast import runner
+    monkeypatch.setattr(runner, "read_mesh", fake_runner_mod.read_mesh)
+    monkeypatch.setattr(runner, "run", fake_runner_mod.run)
     scene = tmp_path / "good.toml"
     scene.write_text(GOOD)
     return scene
@@ -123,10 +153,11 @@ def test_run_writes_summary(fake_runner, tmp_path):
     out = tmp_path / "out"
     assert cli.main(["run", str(fake_runner), "--out", str(out)]) == 0
     s = json.loads((out / "summary.json").read_text())
-    assert s["scene"] == "bar" and s["kind"] == "bar_tension" and s["converged"] is True
+    assert s["scene"] == "bar" and s["analysis"] == "static" and s["converged"] is True
     assert s["active_physics"] == ["plasticity"] and s["mpi_ranks"] == 1
     assert s["cells"] == 8 and s["final_radius_mm"] == 4.5 and s["curve"] == [1.0, 2.0]
     assert s["wall_time_s"] >= 0 and s["scene_file"] == str(fake_runner)
+    assert s["scene_settings"]["materials"]["steel"]["hardening"]["yield_stress"] == 450.0
     hist = (out / "history.csv").read_text().splitlines()
     assert hist[0] == "step,load_N" and len(hist) == 4
     assert (out / "profile.csv").read_text().startswith("z_mm,r_mm")
@@ -141,16 +172,6 @@ def test_run_error_exit_1_summary_kept(fake_runner, tmp_path, capsys):
     assert s["converged"] is False and "no convergence" in s["error"]
     assert s["last_load_fraction"] == 0.5
     assert len((out / "history.csv").read_text().splitlines()) == 4
-
-
-def test_missing_runner_module_exit_2(tmp_path, monkeypatch, capsys):
-    monkeypatch.setitem(scenes.RUNNERS, "bar_tension", "fenics_plast.scenes.no_such_module:run")
-    scene = tmp_path / "good.toml"
-    scene.write_text(GOOD)
-    out = tmp_path / "out3"
-    assert cli.main(["run", str(scene), "--out", str(out)]) == 2
-    assert "no_such_module" in capsys.readouterr().err
-    assert not out.exists()
 
 
 def test_read_deformation_table(tmp_path):

@@ -2,8 +2,7 @@
 
 (a) The Richardson extrapolation recovers the exact order and limit of manufactured sequences
 (constant and varying refinement ratio) and refuses non-monotone ones; (b) the references of a
-study: finest run, Richardson, fallback, first run; the ordered keys (old and new scene format,
-fnmatch patterns); the key results, info columns and published references come from the runs'
+study: finest run, Richardson, fallback, first run; the ordered keys (fnmatch patterns); the key results, info columns and published references come from the runs'
 summary.json, and the published ones are left out when a non-discretisation key is varied or set;
 (c) a real, short Taylor study through the CLI: study.csv/md/png exist, the numbers in study.csv
 are the runs' summary.json values, the finest run's error is 0 and the others' errors are
@@ -27,9 +26,13 @@ REPO = Path(__file__).resolve().parent.parent
 TAYLOR = REPO / "demos" / "taylor_bar.toml"
 SERIAL = int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1")) == 1
 needs_serial = pytest.mark.skipif(not SERIAL, reason="starts its own processes")
-#: What the Taylor runner declares in summary.json (key_results, info_results).
-TAYLOR_KEYS = ["final_radius_mm", "final_length_mm", "max_eqps"]
-TAYLOR_INFO = ["energy_balance_error", "dt_s"]
+#: What demos/taylor_bar.toml declares in summary.json (key_results, info_results).
+TAYLOR_KEYS = ["length_mm", "radius_mm", "max_eqps"]
+TAYLOR_INFO = ["kinetic_energy_J", "max_kinetic_energy_J", "elastic_energy_J", "max_elastic_energy_J",
+               "plastic_dissipation_J", "max_plastic_dissipation_J", "external_work_J", "max_external_work_J",
+               "energy_balance_error", "max_energy_balance_error"]
+#: the Taylor bar to 5 us
+SHORT = ["analysis.end_time=5", "output.history_points=3"]
 
 
 # -- (a) Richardson -----------------------------------------------------------------------------
@@ -73,12 +76,13 @@ def _runs(varies, values, key="x"):
 
 
 def test_references_richardson_and_groups():
-    varies = [st.parse_vary("material.model=seed,isochoric"), st.parse_vary("mesh.refine=1,2,4")]
+    varies = [st.parse_vary("materials.copper.model=seed,isochoric"), st.parse_vary("mesh.refine=1,2,4")]
     f = lambda c, r: c - 0.4 * (1.0 / r) ** 2          # noqa: E731  order 2, limit c
     vals = [f(7.0, 1), f(7.0, 2), f(7.0, 4), f(7.2, 1), f(7.2, 2), f(7.2, 4)]
     runs = _runs(varies, vals)
     refs = st.references(runs, varies, ["x"])
-    assert [ref.group for ref in refs] == [(("material.model", "seed"),), (("material.model", "isochoric"),)]
+    assert [ref.group for ref in refs] == [(("materials.copper.model", "seed"),),
+                                           (("materials.copper.model", "isochoric"),)]
     for ref, limit in zip(refs, (7.0, 7.2)):
         assert ref.values["x"] == pytest.approx(limit, rel=1e-12)
         assert ref.orders["x"] == pytest.approx(2.0, rel=1e-9)
@@ -95,12 +99,12 @@ def test_references_fallbacks():
     refs = st.references(_runs(varies, [1.0, 1.2, None]), varies, ["x"])    # finest failed
     assert refs[0].values["x"] == 1.2 and refs[0].run.name == "02_refine-2"
     assert any("failed" in n for n in refs[0].notes)
-    # dt_safety: smaller is finer
-    varies = [st.parse_vary("solver.dt_safety=1.0,0.5,0.8")]
+    # max_increment: smaller is finer
+    varies = [st.parse_vary("analysis.max_increment=0.1,0.025,0.05")]
     refs = st.references(_runs(varies, [3.0, 1.0, 2.0]), varies, ["x"])
-    assert refs[0].values["x"] == 1.0 and refs[0].run.settings["solver.dt_safety"] == "0.5"
+    assert refs[0].values["x"] == 1.0 and refs[0].run.settings["analysis.max_increment"] == "0.025"
     # no ordered key: the first successful run
-    varies = [st.parse_vary("contact.law=coulomb,quasi-coulomb")]
+    varies = [st.parse_vary("contact.punch.law=coulomb,quasi-coulomb")]
     refs = st.references(_runs(varies, [None, 5.0]), varies, ["x"])
     assert refs[0].values["x"] == 5.0 and "first run" in refs[0].kind["x"]
 
@@ -122,18 +126,17 @@ def test_cheapest_within():
 
 
 def test_ordered_keys():
-    """Discretisation keys of the new scene format (fnmatch patterns) and of the old one."""
+    """Discretisation keys of the scene format (fnmatch patterns); the keys of the removed per-kind
+    format (mesh.cells_radial, solver.*) are no longer ordered."""
     finer_if_larger = ["mesh.refine", "mesh.parameters.cells_radial", "mesh.parameters.cells", "analysis.time_steps",
                        "analysis.increments", "steps.load.increments", "contact.punch.penalty",
-                       "contact.punch.tangential_penalty", "mesh.cells_radial", "solver.increments",
-                       "contact.penalty"]
+                       "contact.punch.tangential_penalty"]
     finer_if_smaller = ["analysis.dt_safety", "analysis.max_increment", "steps.unload.max_increment",
-                        "analysis.min_increment", "analysis.rtol", "analysis.atol", "solver.dt_safety",
-                        "solver.max_increment"]
+                        "analysis.min_increment", "analysis.rtol", "analysis.atol"]
     assert all(st.order_sign(k) == +1 for k in finer_if_larger)
     assert all(st.order_sign(k) == -1 for k in finer_if_smaller)
-    for k in ("loading.velocity", "material.model", "contact.law", "contact.punch.law", "mesh.parameters.radius",
-              "steps.load.end"):
+    for k in ("initial_velocity.bar.value", "materials.copper.model", "contact.punch.law", "contact.punch.friction",
+              "mesh.parameters.radius", "steps.load.end", "mesh.cells_radial", "solver.dt_safety"):
         assert st.order_sign(k) is None, k
     varies = [st.parse_vary("analysis.dt_safety=1.0,0.5,0.8")]
     refs = st.references(_runs(varies, [3.0, 1.0, 2.0]), varies, ["x"])
@@ -158,7 +161,7 @@ def test_declared_outputs_and_published_references(tmp_path, monkeypatch):
     published ones are compared with only when the study changes discretisation keys alone."""
     monkeypatch.setattr("fenics_plast.study.driver.execute", _fake_execute)
     quiet = dict(log=lambda m: None)
-    s = st.run_study(TAYLOR, [st.parse_vary("mesh.refine=1,2,4")], tmp_path / "a", ["solver.dt_safety=0.5"], **quiet)
+    s = st.run_study(TAYLOR, [st.parse_vary("mesh.refine=1,2,4")], tmp_path / "a", ["analysis.dt_safety=0.5"], **quiet)
     assert s.keys == ["final_radius_mm", "max_eqps"] and s.info == ["dt_s"]
     assert s.paper == {"final_radius_mm": 7.11} and s.paper_sources == {"final_radius_mm": "seed paper, Table 3"}
     rows = _read_csv(tmp_path / "a" / "study.csv")
@@ -168,11 +171,13 @@ def test_declared_outputs_and_published_references(tmp_path, monkeypatch):
     md = (tmp_path / "a" / "study.md").read_text()
     assert "## Against the published references" in md and "`final_radius_mm` = 7.11: seed paper, Table 3" in md
     # a physical key varied or set: the published problem is not the one run
-    for varies, sets in (([st.parse_vary("mesh.refine=1,2"), st.parse_vary("loading.velocity=200,227")], []),
-                         ([st.parse_vary("mesh.refine=1,2")], ["loading.end_time_us=5"])):
+    for varies, sets, key in (([st.parse_vary("mesh.refine=1,2"),
+                                st.parse_vary("initial_velocity.bar.value=[0.0, -200.0],[0.0, -227.0]")], [],
+                               "initial_velocity.bar.value"),
+                              ([st.parse_vary("mesh.refine=1,2")], ["analysis.end_time=5"], "analysis.end_time")):
         out = tmp_path / f"b{len(sets)}"
         s = st.run_study(TAYLOR, varies, out, sets, **quiet)
-        assert s.paper == {} and "loading." in s.paper_note
+        assert s.paper == {} and key in s.paper_note
         assert not any(c.startswith("err_paper_") for c in _read_csv(out / "study.csv")[0])
         md = (out / "study.md").read_text()
         assert "Published references (`final_radius_mm`) not compared" in md and "## Against" not in md
@@ -216,41 +221,42 @@ def test_short_taylor_study(tmp_path):
     """Taylor bar to 5 us: refine 0 (invalid), 1, 2 x a fixed step count of 1 (above the stable limit)
     and 200. Four processes, about 15 s."""
     out = tmp_path / "study"
-    args = ["study", str(TAYLOR), "--vary", "mesh.refine=0,1,2", "--vary", "solver.steps=1,200",
-            "--set", "loading.end_time_us=5", "--set", "output.history_points=3", "--out", str(out)]
+    args = ["study", str(TAYLOR), "--vary", "mesh.refine=0,1,2", "--vary", "analysis.time_steps=1,200",
+            "--set", SHORT[0], "--set", SHORT[1], "--out", str(out)]
     r = subprocess.run([sys.executable, "-m", "fenics_plast.cli", *args], capture_output=True, text=True,
                        cwd=REPO, timeout=300)
     assert r.returncode == 0, r.stdout + r.stderr
     for name in ("study.csv", "study.md", "study.png"):
         assert (out / name).stat().st_size > 0
     rows = _read_csv(out / "study.csv")
-    assert [row["run"] for row in rows] == ["01_refine-0_steps-1", "02_refine-0_steps-200", "03_refine-1_steps-1",
-                                            "04_refine-1_steps-200", "05_refine-2_steps-1", "06_refine-2_steps-200"]
+    assert [row["run"] for row in rows] == ["01_refine-0_time_steps-1", "02_refine-0_time_steps-200",
+                                            "03_refine-1_time_steps-1", "04_refine-1_time_steps-200",
+                                            "05_refine-2_time_steps-1", "06_refine-2_time_steps-200"]
     by = {row["run"]: row for row in rows}
     # invalid value: the validator's message, no run directory
-    for name in ("01_refine-0_steps-1", "02_refine-0_steps-200"):
+    for name in ("01_refine-0_time_steps-1", "02_refine-0_time_steps-200"):
         assert by[name]["status"] == "invalid"
         assert "mesh.refine" in by[name]["reason"] and "refine >= 1" in by[name]["reason"]
         assert not (out / "runs" / name).exists()
     # step above the stable limit: the run's error, from its summary.json
-    for name in ("03_refine-1_steps-1", "05_refine-2_steps-1"):
+    for name in ("03_refine-1_time_steps-1", "05_refine-2_time_steps-1"):
         assert by[name]["status"] == "failed"
         assert "exceeds the stable limit" in by[name]["reason"]
         summary = json.loads((out / "runs" / name / "summary.json").read_text())
         assert by[name]["reason"] == summary["error"]
-        assert by[name]["err_final_radius_mm"] == ""
+        assert by[name]["err_radius_mm"] == ""
     # the successful runs: every number is the summary's
     keys = TAYLOR_KEYS
-    for name in ("04_refine-1_steps-200", "06_refine-2_steps-200"):
+    for name in ("04_refine-1_time_steps-200", "06_refine-2_time_steps-200"):
         row = by[name]
         assert row["status"] == "ok" and row["reason"] == ""
         summary = json.loads((out / "runs" / name / "summary.json").read_text())
         for c in ["wall_time_s", "cells", "dofs", "steps", "mpi_ranks"] + keys + TAYLOR_INFO:
             assert float(row[c]) == summary[c], c
-        assert summary["overrides"][-2:] == [f"mesh.refine={row['mesh.refine']}", "solver.steps=200"]
+        assert summary["overrides"][-2:] == [f"mesh.refine={row['mesh.refine']}", "analysis.time_steps=200"]
         assert summary["steps"] == 200
         assert summary["key_results"] == keys and summary["info_results"] == TAYLOR_INFO
-    fine, coarse = by["06_refine-2_steps-200"], by["04_refine-1_steps-200"]
+    fine, coarse = by["06_refine-2_time_steps-200"], by["04_refine-1_time_steps-200"]
     assert int(fine["cells"]) == 4 * int(coarse["cells"]) == 864
     for k in keys:
         assert float(fine[f"err_{k}"]) == 0.0
@@ -258,17 +264,17 @@ def test_short_taylor_study(tmp_path):
         e = (float(coarse[k]) - float(fine[k])) / abs(float(fine[k]))
         assert float(coarse[f"err_{k}"]) == pytest.approx(e, rel=1e-12, abs=1e-15)
     # the radius grows with refinement at 5 us (measured: 4.33 -> 4.43 mm): a real difference
-    assert float(coarse["err_final_radius_mm"]) < -0.01
-    # 5 us (--set loading.end_time_us) is not the paper's 80 us scene: no paper columns
-    assert "err_paper_final_radius_mm" not in rows[0]
+    assert float(coarse["err_radius_mm"]) < -0.01
+    # 5 us (--set analysis.end_time) is not the paper's 80 us scene: no paper columns
+    assert "err_paper_radius_mm" not in rows[0]
     md = (out / "study.md").read_text()
-    assert "exceeds the stable limit" in md and "| 06_refine-2_steps-200 | 2 | 200 | ok |" in md
+    assert "exceeds the stable limit" in md and "| 06_refine-2_time_steps-200 | 2 | 200 | ok |" in md
     assert md.count("\n| 0") == 6
 
     # --reuse: nothing runs again, same table
     before = (out / "study.csv").read_text()
-    s = st.run_study(TAYLOR, [st.parse_vary("mesh.refine=0,1,2"), st.parse_vary("solver.steps=1,200")], out,
-                     ["loading.end_time_us=5", "output.history_points=3"], reuse=True, log=lambda m: None)
+    s = st.run_study(TAYLOR, [st.parse_vary("mesh.refine=0,1,2"), st.parse_vary("analysis.time_steps=1,200")], out,
+                     SHORT, reuse=True, log=lambda m: None)
     assert [r.reused for r in s.runs] == [False, False, True, True, True, True]
     assert (out / "study.csv").read_text() == before      # process_time_s too: the recorded one
 
@@ -287,8 +293,9 @@ def test_bad_study_arguments_exit_2(tmp_path, capsys):
     out = tmp_path / "o"
     assert st.main([str(TAYLOR), "--vary", "mesh.refine", "--out", str(out)]) == 2
     assert "must have the form" in capsys.readouterr().err
-    assert st.main([str(TAYLOR), "--vary", "mesh.refine=1,2", "--set", "material.nu=0.7", "--out", str(out)]) == 2
-    assert "material.nu" in capsys.readouterr().err
+    assert st.main([str(TAYLOR), "--vary", "mesh.refine=1,2", "--set", "materials.copper.nu=0.7",
+                    "--out", str(out)]) == 2
+    assert "materials.copper.nu" in capsys.readouterr().err
     assert st.main([str(TAYLOR), "--vary", "mesh.refine=1,2", "--vary", "mesh.refine=3", "--out", str(out)]) == 2
     assert not (out / "study.csv").exists()
     r = subprocess.run([sys.executable, "-m", "fenics_plast.study", str(TAYLOR), "--vary", "mesh.refine",
@@ -301,9 +308,8 @@ def test_bad_study_arguments_exit_2(tmp_path, capsys):
 def test_study_under_mpirun_matches_serial(tmp_path):
     """--np 2: each run under mpirun -n 2 reports 2 ranks and the serial run's results (Taylor to 5 us)."""
     varies = [st.parse_vary("mesh.refine=1")]
-    sets = ["loading.end_time_us=5", "output.history_points=3"]
-    s1 = st.run_study(TAYLOR, varies, tmp_path / "np1", sets, log=lambda m: None)
-    s2 = st.run_study(TAYLOR, varies, tmp_path / "np2", sets, np_ranks=2, log=lambda m: None)
+    s1 = st.run_study(TAYLOR, varies, tmp_path / "np1", SHORT, log=lambda m: None)
+    s2 = st.run_study(TAYLOR, varies, tmp_path / "np2", SHORT, np_ranks=2, log=lambda m: None)
     r1, r2 = s1.runs[0], s2.runs[0]
     assert r1.ok and r2.ok, (r1.reason, r2.reason)
     assert r1.summary["mpi_ranks"] == 1 and r2.summary["mpi_ranks"] == 2

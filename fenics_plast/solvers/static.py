@@ -587,14 +587,20 @@ class StaticSolver:
         local = float(np.sum(self.internal_force()[dofs]))
         return self.comm.allreduce(local, op=MPI.SUM)
 
+    def displacement_space(self):
+        """(the displacement space as a space of its own, the map from its unrolled dofs into
+        ``w``): the collapsed subspace for q1p0 (mixed with the dilatation), the space itself for q1."""
+        if self.mixed:
+            Vc, m = self.V.collapse()
+            return Vc, np.asarray(m)
+        im = self.V.dofmap.index_map
+        return self.V, np.arange((im.size_local + im.num_ghosts) * self.V.dofmap.index_map_bs, dtype=np.int64)
+
     def displacement_function(self):
         """A persistent CG1 Function named "displacement" holding the current u (for XDMF)."""
         if not hasattr(self, "_u_out"):
-            if self.mixed:
-                Vc, m = self.W.sub(0).collapse()
-                self._u_map = np.asarray(m)
-            else:
-                Vc, self._u_map = self.W, None
+            Vc, m = self.displacement_space()
+            self._u_map = m if self.mixed else None
             self._u_out = fem.Function(Vc, name="displacement")
         if self._u_map is None:
             self._u_out.x.array[:] = self.w.x.array
