@@ -16,7 +16,7 @@ from __future__ import annotations
 import basix
 import numpy as np
 import ufl
-from dolfinx import cpp, fem
+from dolfinx import fem
 
 
 class MaterialUpdateError(RuntimeError):

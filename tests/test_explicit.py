@@ -22,7 +22,8 @@ from fenics_plast.meshing import bar_mesh
 from fenics_plast.problem import load_problem
 from fenics_plast.quantities import Quantities
 from fenics_plast.runner_explicit import build_explicit
-from fenics_plast.solvers.explicit import ExplicitDynamics, quad_min_size
+from fenics_plast.solvers.explicit import ExplicitDynamics
+from fenics_plast.solvers.time_integration import quad_min_size
 
 REPO = Path(__file__).resolve().parent.parent
 TOML = REPO / "demos" / "taylor_bar.toml"

@@ -61,7 +61,7 @@ from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 from fenics_plast.solvers import fused_force
 from fenics_plast.solvers import time_integration as ti
 from fenics_plast.solvers.explicit_contact import ContactSet
-from fenics_plast.solvers.time_integration import _quad_min_size, quad_min_size  # noqa: F401 (re-exported)
+from fenics_plast.solvers.time_integration import _quad_min_size
 
 # basix vertex order of a quadrilateral is tensor-product (0,0) (1,0) (0,1) (1,1); cyclic order:
 _QUAD_CYCLE = np.array([0, 1, 3, 2])
