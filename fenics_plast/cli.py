@@ -224,6 +224,9 @@ def cmd_point(args) -> int:
     if args.steps < 1:
         _error("--steps must be >= 1")
         return EXIT_USAGE
+    if args.rate is not None and not (np.isfinite(args.rate) and args.rate > 0):
+        _error(f"--rate must be a positive number [1/s], got {args.rate}")
+        return EXIT_USAGE
     t = None
     if args.path == "table":
         try:
@@ -237,11 +240,11 @@ def cmd_point(args) -> int:
     material = material_of(problem.materials[name])
     try:
         if args.path == "uniaxial":
-            result = point.uniaxial_stress(material, args.to, args.steps)
+            result = point.uniaxial_stress(material, args.to, args.steps, rate=args.rate)
         elif args.path == "shear":
-            result = point.simple_shear(material, args.to, args.steps)
+            result = point.simple_shear(material, args.to, args.steps, rate=args.rate)
         else:
-            result = point.deformation_table(material, F)
+            result = point.deformation_table(material, F, rate=args.rate)
     except RunError as e:
         _error(str(e))
         return EXIT_RUN_FAILED
@@ -330,6 +333,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "or a table of deformation gradients (--table)")
     q.add_argument("--to", type=float, help="final log strain (uniaxial) or shear gamma (shear)")
     q.add_argument("--steps", type=int, default=100, help="number of steps (default 100)")
+    q.add_argument("--rate", type=float, metavar="PER_S",
+                   help="drive the path in time at this constant rate [1/s]: axial log-strain rate (uniaxial), "
+                        "shear rate (shear), or rows per second (table); Johnson-Cook materials then see the "
+                        "plastic strain rate and heat adiabatically (columns time_s, temperature_K). Without "
+                        "it: no physical time (no rate term, no heating)")
     q.add_argument("--table", help="CSV with header t,F11,F12,F13,F21,F22,F23,F31,F32,F33 (row-major F)")
     q.add_argument("--out", help="output CSV (default results/<scene name>/point_<path>.csv)")
     q.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene key (repeatable)")

@@ -257,7 +257,9 @@ def declared_figures(settings: Mapping[str, Any], references: Mapping[str, Any] 
                               ylabel=f"{out} = ln(t/t0)", title=title, source=f"{out}.csv", group="time",
                               group_label="t = {:g}"))
         else:
-            figs.append(Cells(name, "eqps", "equivalent plastic strain", title, "final_shape.csv", mirror=axisym,
+            field = p.get("field") or "eqps"
+            label = "temperature [K]" if field == "temperature" else "equivalent plastic strain"
+            figs.append(Cells(name, field, label, title, "final_shape.csv", mirror=axisym,
                               xlabel="r [mm]" if axisym else "x [mm]", ylabel="z [mm]" if axisym else "y [mm]"))
     return figs
 

@@ -2,12 +2,18 @@
 
 ``QuadratureMap`` evaluates a UFL expression of the incremental deformation gradient Fu at the
 quadrature points of the owned cells (one compiled ``fem.Expression``), runs
-``material.update_into`` from the COMMITTED state (binv, eqps), and writes the Kirchhoff stress
-tau (and the spatial tangent a) into quadrature Functions used by the forms. The tangent is stored as a 9x9 tensor per point,
-a[3i+j, 3k+l] = a_ijkl (basix 0.5 has no rank-4 tensor elements); ``a_values`` is (n,3,3,3,3).
+``material.update_into`` from the COMMITTED state (binv, eqps, and the temperature of Johnson-Cook
+materials), and writes the Kirchhoff stress tau (and the spatial tangent a) into quadrature
+Functions used by the forms. The tangent is stored as a 9x9 tensor per point, a[3i+j, 3k+l] = a_ijkl (basix 0.5 has no rank-4 tensor elements); ``a_values`` is (n,3,3,3,3).
 The trial state is kept until ``commit()``; nothing is needed to restore since every update
 starts from the committed state. Points are numbered cell-major over the owned cells (point
 p = c nq + q of owned cell c), the numbering a ``MaterialRegions`` (several materials) relies on.
+
+Temperature (``temperature``, ``temperature_trial``, (n,) [K]): the state of Johnson-Cook materials,
+their initial temperature at the start (0 at points of materials without one; ``thermal`` says
+whether any material has one). ``dt`` (a (1,) array, [s]): the time increment of the update (plastic
+strain rate, adiabatic heating), set by the explicit solver before each step; it stays 0 in static
+analyses (the static convention: no rate term, no heating).
 
 Never write a quadrature Function to XDMF (segfaults in dolfinx 0.5.2): use ``cell_mean``.
 """
@@ -75,6 +81,10 @@ class QuadratureMap:
         self.eqps = np.zeros(self.n)
         self.binv_trial = self.binv.copy()
         self.eqps_trial = self.eqps.copy()
+        self.thermal = bool(getattr(material, "thermal", False))
+        self.temperature = material.initial_temperatures(self.n)
+        self.temperature_trial = self.temperature.copy()
+        self.dt = np.zeros(1)                    # time increment of the update [s]; 0: no physical time
         # trivial dofmap: the material writes straight into the Functions' arrays (views)
         self.tau_values = (self.tau.x.array[: self.n * 9].reshape(self.n, 3, 3) if self.trivial_tau
                            else np.zeros((self.n, 3, 3)))
@@ -107,7 +117,8 @@ class QuadratureMap:
         tangent = tangent and self.has_tangent
         a = self.a_values if tangent else None
         self.material.update_into(Fu, self.binv, self.eqps, self.tau_values,
-                                  self.binv_trial, self.eqps_trial, a)
+                                  self.binv_trial, self.eqps_trial, a, temp_n=self.temperature,
+                                  temp=self.temperature_trial, dt=float(self.dt[0]))
         bad = not np.isfinite(self.tau_values).all() or (tangent and not np.isfinite(a).all())
         # scatter_forward is collective: write on every rank before raising (a rank-local raise
         # here would deadlock the others)
@@ -130,6 +141,8 @@ class QuadratureMap:
     def commit(self):
         self.binv[:] = self.binv_trial
         self.eqps[:] = self.eqps_trial
+        if self.thermal:
+            self.temperature[:] = self.temperature_trial
 
     # -- output ----------------------------------------------------------------------------
     def _weights(self):

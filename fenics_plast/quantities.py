@@ -35,7 +35,7 @@ def column_names(name: str, spec) -> list[str]:
     if q in ("displacement", "position", "extent", "tool_displacement"):
         return [f"{name}_mm"]
     if q == "field":
-        return [f"{name}_MPa" if spec.field == "von_mises" else name]
+        return [{"von_mises": f"{name}_MPa", "temperature": f"{name}_K"}.get(spec.field, name)]
     if q == "energy":
         if spec.energy == "all":
             return [ENERGY_COLUMNS[e] for e in ENERGIES]
@@ -50,7 +50,8 @@ class Body:
 
     * ``V``: the CG1 vector space of the displacement ``u`` (a Function on V, owned + ghosts);
     * ``X``: reference coordinates of V's nodes (n, 2); ``positions()``: current ones (n, 2);
-    * ``qmap``: the :class:`fenics_plast.quadrature.QuadratureMap` (eqps, tau per owned point);
+    * ``qmap``: the :class:`fenics_plast.quadrature.QuadratureMap` (eqps, temperature, tau per owned
+      point);
     * ``reaction(dofs)`` [N] for owned V-dof indices of one component (unrolled, V numbering);
     * ``tool_force(tool)`` -> (Fx, Fy) [N]; ``tool_translation(tool, t)`` -> (dx, dy) [mm];
       ``energies()`` -> dict [N mm] (explicit only).
@@ -132,7 +133,8 @@ class Quantities:
             return [comm.allreduce(float(vals.min()) if vals.size else np.inf, op=MPI.MIN)]
         if q == "field":
             qm = b.qmap
-            vals = qm.eqps if o.field == "eqps" else von_mises(qm.tau_values)
+            vals = (qm.eqps if o.field == "eqps" else qm.temperature if o.field == "temperature"
+                    else von_mises(qm.tau_values))
             if o.regions is not None:
                 cells = np.concatenate([b.cell_regions[r] for r in o.regions])
                 vals = vals.reshape(-1, qm.nq)[cells]

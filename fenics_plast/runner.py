@@ -40,6 +40,8 @@ def material_of(spec) -> Material:
     hardening = None
     if h is not None:
         kw = {k: v for k, v in h.to_dict().items() if k != "law"}
+        if h.law == "johnson_cook":
+            kw["density"] = spec.density          # tonne/mm^3: the adiabatic heating's rho c_p
         hardening = Hardening(h.law, **kw)
     return Material(spec.E, spec.nu, hardening, model=spec.model)
 
@@ -152,6 +154,37 @@ def cell_regions(cell_tags, groups, n_owned):
     return out
 
 
+def initial_velocity_field(problem, V, cell_tags, groups, scale) -> np.ndarray:
+    """Nodal initial velocities (n_local_nodes, 2), owned and ghost nodes, from [initial_velocity].
+
+    Each table gives its value (numbers or expressions of x, y, z; ``scale`` converts the file's unit)
+    at the nodes of its regions' cells, or of the whole body without ``regions``. A node covered by
+    several tables (on the boundary between two regions) takes the last one's value. The nodes of a
+    region are marked on every rank that holds one of its cells and the marks summed on the owners, so
+    the result does not depend on the partition (collective)."""
+    from dolfinx.cpp.la import ScatterMode
+    mesh = V.mesh
+    tdim = mesh.topology.dim
+    X = V.tabulate_dof_coordinates()
+    n = X.shape[0]
+    velocity = np.zeros((n, 2))
+    marker = fem.Function(fem.FunctionSpace(mesh, ("Lagrange", 1)))
+    for name, iv in problem.initial_velocity.items():
+        if iv.regions is None:
+            on = np.ones(n, dtype=bool)
+        else:
+            cells = np.concatenate([cell_tags.find(groups[r][1]) for r in iv.regions]).astype(np.int32)
+            marker.x.array[:] = 0.0
+            marker.x.array[fem.locate_dofs_topological(marker.function_space, tdim, cells)] = 1.0
+            marker.x.scatter_reverse(ScatterMode.add)
+            marker.x.scatter_forward()
+            on = marker.x.array[:n] > 0.0
+        for c, value in enumerate(iv.value):
+            v = value.evaluate(x=X[on, 0], y=X[on, 1], z=X[on, 2]) if value.depends_on_space else value.evaluate()
+            velocity[on, c] = scale * np.asarray(v, dtype=float)
+    return velocity
+
+
 def symmetry_component(V, facet_tags, tag, where):
     """The component normal to a straight symmetry line (0: normal to x, 1: normal to y)."""
     nodes = fem.locate_dofs_topological(V, V.mesh.topology.dim - 1, facet_tags.find(tag))
@@ -228,11 +261,16 @@ def checkpointer(problem, output, comm):
 
 
 def write_final_shape(problem, output, V, positions, qmap):
-    """final_shape.csv (deformed cells and their mean eqps) when the scene declares a shape plot; collective."""
+    """final_shape.csv (deformed cells and their mean eqps, and temperature with Johnson-Cook materials)
+    when the scene declares a shape plot; collective."""
     if not any(p.type == "shape" for p in problem.plots.values()):
         return
     from fenics_plast.plots import cells_table
-    output.write_csv("final_shape", cells_table(V, positions, qmap.cell_mean(qmap.eqps, name="eqps"), "eqps"))
+    table = cells_table(V, positions, qmap.cell_mean(qmap.eqps, name="eqps"), "eqps")
+    if qmap.thermal:
+        table["temperature"] = cells_table(V, positions, qmap.cell_mean(qmap.temperature, name="temperature"),
+                                           "temperature")["temperature"]
+    output.write_csv("final_shape", table)
 
 
 def draw_plots(problem, output):

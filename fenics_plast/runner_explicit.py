@@ -13,13 +13,13 @@ import numpy as np
 from dolfinx import fem
 
 from fenics_plast.kinematics import Kinematics
-from fenics_plast.errors import SceneError
+from fenics_plast.errors import RunError, SceneError
 from fenics_plast.schema import M_S
 from fenics_plast.quantities import Body, Quantities
 from fenics_plast.runner import (body_material, cell_regions, checkpointer, components_of, contact_modulus,
-                                 draw_plots, open_fields, read_mesh, symmetry_component, tool_of, values_of,
-                                 write_final_shape)
-from fenics_plast.solvers.explicit import ExplicitDynamics
+                                 draw_plots, initial_velocity_field, open_fields, read_mesh, symmetry_component,
+                                 tool_of, values_of, write_final_shape)
+from fenics_plast.solvers.explicit import ExplicitDynamics, TimeStepCollapse
 
 US = 1e-6
 
@@ -65,7 +65,8 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
     V = fem.VectorFunctionSpace(mesh, ("Lagrange", 1))
     zero, moving, loads = velocity_constraints(problem, V, ft, groups)
     solver = ExplicitDynamics(mesh, kin, material, density, zero, element=problem.mesh.element,
-                              log=log if log is not None else (lambda m: None), internal_force=ana.internal_force)
+                              log=log if log is not None else (lambda m: None), internal_force=ana.internal_force,
+                              stable_step=ana.stable_step)
     for c, facets, kind, val, name in moving:
         dofs = fem.locate_dofs_topological(solver.V, mesh.topology.dim - 1, facets)
         f = (lambda v: (lambda t: float(v.evaluate(t=t / US))))(val)
@@ -93,13 +94,8 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
                 contact_modulus(material, mesh, ft, tag), contact_length_scale(mesh, ft, tag))
             pairs[name] = solver.add_contact(tools[spec.tool], ft, tag, penalty=eps, friction=spec.friction,
                                              law=spec.law, tangential_penalty=spec.tangential_penalty)
-    velocity = np.zeros(2)
-    for name, iv in problem.initial_velocity.items():
-        if iv.regions is not None or any(v.depends_on_space for v in iv.value):
-            raise SceneError(f"{problem.path}: initial_velocity.{name}: this version sets a uniform initial "
-                             f"velocity of the whole body (no regions, no expressions of x, y)")
-        velocity += [float(v.evaluate()) * M_S for v in iv.value]      # m/s as written -> mm/s
-    solver.set_velocity(tuple(velocity))
+    # m/s as written -> mm/s, per node (regions, expressions of x, y, z)
+    solver.set_velocity(initial_velocity_field(problem, solver.V, ct, groups, M_S))
 
     def tool_force(tool):
         return sum((np.asarray(p.force()) for n, p in pairs.items() if problem.contact[n].tool == tool), np.zeros(2))
@@ -120,7 +116,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
     rows = int(problem.output.history_points)
     every = int(problem.output.every)
     xf = open_fields(problem, output, comm, mesh)
-    state = dict(row=0, eqps=None)
+    state = dict(row=0, eqps=None, temperature=None)
 
     ck = checkpointer(problem, output, comm)
     loop = None
@@ -136,19 +132,49 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
         ck.save(s.step_count, solver=s.state_dict(), loop=loop_state,
                 runner=dict(history=quantities.history, times=quantities.times, row=state["row"]))
 
+    scaling = ana.mass_scaling_dt > 0.0
+
     def on_row(s, t):
-        output.history(time_us=t / US, **quantities.row(t / US))
-        if xf is not None and (state["row"] % every == 0 or t >= end_time * (1 - 1e-12)):
+        # (a stop right after landing on a row time writes the fields only, not a second row)
+        if not (state.get("stop") and quantities.times and t / US <= quantities.times[-1]):
+            cols = quantities.row(t / US)
+            if scaling:
+                cols.update(mass_scaling_columns(s))
+            output.history(time_us=t / US, **cols)
+        if xf is not None and (state["row"] % every == 0 or t >= end_time * (1 - 1e-12) or state.get("stop")):
             state["eqps"] = s.qmap.cell_mean(s.qmap.eqps, name="eqps", out=state["eqps"])
             xf.write_function(s.u, t / US)
             xf.write_function(state["eqps"], t / US)
+            if s.qmap.thermal:         # Johnson-Cook: the temperature [K]
+                state["temperature"] = s.qmap.cell_mean(s.qmap.temperature, name="temperature",
+                                                        out=state["temperature"])
+                xf.write_function(state["temperature"], t / US)
         state["row"] += 1
 
     bar = output.progress(end_time / US, problem.name, what="t", unit="us")
     ck_args = {} if ck is None else dict(checkpoint_every=ck.every, on_checkpoint=on_checkpoint, resume=loop)
+    stop = None
     try:
         stats = solver.run(end_time, dt_safety=ana.dt_safety, steps=ana.time_steps, rows=rows, on_row=on_row,
-                           bar=bar, **ck_args)
+                           bar=bar, dt_floor=ana.dt_floor, mass_scaling_dt=ana.mass_scaling_dt, **ck_args)
+    except TimeStepCollapse as e:
+        # the state at the stop is sound: a last history row, the fields and a checkpoint there
+        stop, stats = e, e.stats
+        state["stop"] = True
+        on_row(solver, solver.t)
+        if ck is not None:
+            on_checkpoint(solver, e.loop)
+    except RunError as e:
+        # gone unstable (non-finite): the outputs of the history rows so far, not of the state now
+        e.results.update(quantities.summary("time_us"))
+        e.results.update(quantities.study_keys())
+        e.results.update(stopped_at_us=solver.t / US, steps=solver.step_count, cells=solver.cells_global,
+                         dofs=solver.dofs_global, converged=False)
+        if scaling:             # the mass is finite (the velocities may not be)
+            m = solver.mass_scaling_stats()
+            e.results.update(added_mass_kg=m["added_mass"] * 1e3, added_mass_fraction=m["fraction"],
+                             mass_scaled_cells=m["cells"], max_mass_scale_factor=m["max_factor"])
+        raise
     finally:
         if xf is not None:
             xf.close()
@@ -161,7 +187,14 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
                element=solver.element, model=material.model, internal_force=solver.internal_force_route,
                step_loop_time_s=stats["wall_s"], time_per_step_s=stats["time_per_step_s"],
                setup_time_s=solver.timings["setup_s"], cells=solver.cells_global, dofs=solver.dofs_global,
-               converged=True)
+               converged=stop is None)
+    if scaling:
+        m = solver.mass_scaling_stats()
+        res.update(mass_scaling_dt_us=ana.mass_scaling_dt / US, body_mass_kg=m["body_mass"] * 1e3,
+                   added_mass_kg=m["added_mass"] * 1e3, added_mass_fraction=m["fraction"],
+                   mass_scaled_cells=m["cells"], max_mass_scale_factor=m["max_factor"],
+                   added_mass_kinetic_energy_J=m["kinetic"] * 1e-3, mass_scaling_energy_J=m["energy"] * 1e-3)
+        res["info_results"] = list(res["info_results"]) + ["added_mass_fraction", "mass_scaled_cells"]
     if pairs:
         # the contact terms of the balance (energy_balance_error includes them) and, per pair, the
         # largest penetration of the run and its penalty; the springs' stable-step limit (collective calls)
@@ -172,7 +205,20 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
             res[f"{name}_penalty_N_mm3"] = p.penalty
     write_final_shape(problem, output, solver.V, solver.nodal_positions(), solver.qmap)
     draw_plots(problem, output)
+    if stop is not None:
+        res.update(stop.results)
+        raise RunError(f"{problem.name}: {stop}", results=res)
     return res
 
 
-__all__ = ["run_explicit", "velocity_constraints"]
+def mass_scaling_columns(solver) -> dict:
+    """The history columns of selective mass scaling (collective): added mass [kg; plane strain: per
+    mm of depth] and its fraction of the body's mass, the cells scaled, the kinetic energy of the
+    added mass now and the kinetic energy it brought in (a term of the energy balance) [J]."""
+    m = solver.mass_scaling_stats()
+    return dict(added_mass_kg=m["added_mass"] * 1e3, added_mass_fraction=m["fraction"],
+                mass_scaled_cells=m["cells"], added_mass_kinetic_energy_J=m["kinetic"] * 1e-3,
+                mass_scaling_energy_J=m["energy"] * 1e-3)
+
+
+__all__ = ["run_explicit", "velocity_constraints", "mass_scaling_columns"]

@@ -34,7 +34,8 @@ OPTIONAL = _Marker("OPTIONAL")   # may be omitted; then the attribute is None
 
 #: component names of vectors: x = r and y = z in axisymmetry
 COMPONENTS = {"x": 0, "y": 1, "r": 0, "z": 1}
-LAWS = ("linear", "swift", "voce", "table")
+LAWS = ("linear", "swift", "voce", "table", "johnson_cook")
+JC = ("johnson_cook",)
 STATIC, EXPLICIT = ("static",), ("explicit",)
 US = 1e-6          # explicit times are written in microseconds
 M_S = 1e3          # velocities are written in m/s -> mm/s
@@ -145,6 +146,24 @@ SCHEMA: dict[str, Table] = {
                                   "compiled pass, the default) or 'ufl' (the UFL residual assembled by dolfinx, "
                                   "the definition). Same numbers to round-off.", when={"type": EXPLICIT},
                                   choices=("fused", "ufl")),
+            "stable_step": Key("str", "size", "The stable step of a cell: 'size' = h / c (h its smallest edge or "
+                               "altitude, c the dilatational wave speed); 'element' = the larger of h / c and "
+                               "2 / omega_max of the cell's elastic element with its lumped mass (exact for the "
+                               "element; h / c collapses on a cell with a corner near 180 degrees, a sound "
+                               "triangle). The step used is dt_safety x the smallest over the cells.",
+                               when={"type": EXPLICIT}, choices=("size", "element")),
+            "dt_floor": Key("float", 1e-3, "Time-step floor, as a fraction of the initial stable step: when the "
+                            "stable step of the deformed mesh falls below it (a crushed cell), the run stops "
+                            "(exit 1, summary.json with converged = false, the fields and a checkpoint at the "
+                            "stop) with a message naming the cell and the remedies. 0: no floor.",
+                            when={"type": EXPLICIT}, lo=0.0, lo_open=False, hi=1.0),
+            "mass_scaling_dt": Key("float", 0.0, "Selective mass scaling: target stable step. At every step-size "
+                                   "check (every 10 steps) the cells whose stable step h/c is below it get "
+                                   "density (mass at their nodes) so that theirs reaches it; mass is never "
+                                   "removed. The added mass, the cells affected and the kinetic energy the mass "
+                                   "brings are in history.csv and summary.json, and in the energy balance. The "
+                                   "step used is dt_safety x the stable step. 0: off.", "µs",
+                                   when={"type": EXPLICIT}, scale=US, **_nonneg()),
         }),
     "mesh": Table(
         "The mesh: a Gmsh `.geo` file (meshed when the run starts, with `[mesh.parameters]` set as its "
@@ -170,7 +189,14 @@ SCHEMA: dict[str, Table] = {
             "density": Key("float", OPTIONAL, "Mass density (required in explicit analyses).", "kg/m³",
                            scale=KG_M3, **_pos()),
         }, subtables={"hardening": Table(
-            "Optional: absent = purely elastic (plasticity off). Only the keys of the chosen `law` apply.",
+            "Optional: absent = purely elastic (plasticity off). Only the keys of the chosen `law` apply. "
+            "johnson_cook: sigma_y = (A + B eqps^n)(1 + C ln(max(rate, reference_strain_rate) / "
+            "reference_strain_rate))(1 - T*^m), T* = (T - room_temperature) / (melting_temperature - "
+            "room_temperature) clamped to [0, 1], rate the plastic strain rate, T the temperature of each "
+            "quadrature point (a state variable, in fields.xdmf and checkpoints). Explicit analyses: the rate "
+            "is the increment over the step's time and T rises by adiabatic heating dT = taylor_quinney "
+            "sigma_y d eqps / (density specific_heat); static analyses (no physical time): no rate term and no "
+            "heating, T stays initial_temperature. Needs materials.<name>.density.",
             discriminator="law", keys={
                 "law": Key("str", REQUIRED, "Hardening law.", choices=LAWS),
                 "yield_stress": Key("float", REQUIRED, "Initial yield stress.", "MPa",
@@ -180,8 +206,9 @@ SCHEMA: dict[str, Table] = {
                 "K": Key("float", REQUIRED, "Swift: sigma_y = K (eps0 + eqps)^n.", "MPa", when={"law": ("swift",)},
                          **_pos()),
                 "eps0": Key("float", REQUIRED, "Swift pre-strain.", "", when={"law": ("swift",)}, **_pos()),
-                "n": Key("float", REQUIRED, "Swift exponent.", "", when={"law": ("swift",)}, lo=0.0,
-                         lo_open=False, hi=1.0, hi_open=False),
+                "n": Key("float", REQUIRED, "Hardening exponent: swift K (eps0 + eqps)^n, johnson_cook "
+                         "B eqps^n.", "", when={"law": ("swift", "johnson_cook")}, lo=0.0, lo_open=False, hi=1.0,
+                         hi_open=False),
                 "Q": Key("float", REQUIRED, "Voce: sigma_y = yield_stress + Q (1 - exp(-b eqps)) + modulus eqps.",
                          "MPa", when={"law": ("voce",)}, **_nonneg()),
                 "b": Key("float", REQUIRED, "Voce saturation rate.", "", when={"law": ("voce",)}, **_pos()),
@@ -189,6 +216,28 @@ SCHEMA: dict[str, Table] = {
                               "increasing, first 0.", "", when={"law": ("table",)}),
                 "stress": Key("floats", REQUIRED, "Table: yield stress at each strain (piecewise linear), "
                               "each >= 0.", "MPa", when={"law": ("table",)}),
+                "A": Key("float", REQUIRED, "Johnson-Cook yield stress (at the reference rate and room "
+                         "temperature).", "MPa", when={"law": JC}, **_nonneg()),
+                "B": Key("float", REQUIRED, "Johnson-Cook strain-hardening modulus.", "MPa", when={"law": JC},
+                         **_nonneg()),
+                "C": Key("float", REQUIRED, "Johnson-Cook strain-rate sensitivity.", "", when={"law": JC},
+                         **_nonneg()),
+                "reference_strain_rate": Key("float", 1.0, "Johnson-Cook reference plastic strain rate (no "
+                                             "strengthening below it).", "1/s", when={"law": JC}, **_pos()),
+                "m": Key("float", REQUIRED, "Johnson-Cook thermal-softening exponent.", "", when={"law": JC},
+                         **_pos()),
+                "melting_temperature": Key("float", REQUIRED, "Johnson-Cook melting temperature (no strength "
+                                           "at or above it).", "K", when={"law": JC}, **_pos()),
+                "room_temperature": Key("float", REQUIRED, "Johnson-Cook reference (room) temperature: no "
+                                        "thermal softening at or below it.", "K", when={"law": JC}, **_pos()),
+                "initial_temperature": Key("float", OPTIONAL, "Temperature at the start; absent = "
+                                           "room_temperature.", "K", when={"law": JC}, **_pos()),
+                "specific_heat": Key("float", REQUIRED, "Specific heat c_p of the adiabatic heating dT = "
+                                     "taylor_quinney sigma_y d eqps / (density c_p).", "J/(kg K)",
+                                     when={"law": JC}, **_pos()),
+                "taylor_quinney": Key("float", 0.9, "Taylor-Quinney coefficient beta: the fraction of plastic "
+                                      "work that heats (0: no heating).", "", when={"law": JC}, lo=0.0,
+                                      lo_open=False, hi=1.0, hi_open=False),
             })}),
     "boundary": Table(
         "Boundary conditions and loads, one table per name, each on a Gmsh facet group. Static: t is the "
@@ -208,7 +257,8 @@ SCHEMA: dict[str, Table] = {
         }),
     "initial_velocity": Table(
         "Initial velocity (explicit), one table per name.", collection=True, when_analysis=EXPLICIT, keys={
-            "regions": Key("strs", OPTIONAL, "Cell regions; absent = the whole body."),
+            "regions": Key("strs", OPTIONAL, "Cell regions; absent = the whole body. A node shared by two "
+                           "tables' regions takes the last table's value."),
             "value": Key("values", REQUIRED, "Velocity (x, y): numbers or expressions of x, y, z.", "m/s",
                          scale=M_S),
         }),
@@ -283,7 +333,9 @@ SCHEMA: dict[str, Table] = {
             "which": Key("str", "max", "Largest or smallest.", choices=("max", "min"),
                          when={"quantity": ("extent", "field")}),
             "field": Key("str", REQUIRED, "eqps: equivalent plastic strain; von_mises: Kirchhoff von Mises "
-                         "stress [MPa].", choices=("eqps", "von_mises"), when={"quantity": ("field",)}),
+                         "stress [MPa]; temperature [K] (Johnson-Cook materials; points of other materials "
+                         "hold 0).", choices=("eqps", "von_mises", "temperature"),
+                         when={"quantity": ("field",)}),
             "regions": Key("strs", OPTIONAL, "Cell regions (absent = the whole body).", when={"quantity": ("field",)}),
             "energy": Key("str", REQUIRED, "kinetic, elastic, plastic (dissipation), external_work, "
                           "balance_error (relative) or all (the five).",
@@ -309,11 +361,14 @@ SCHEMA: dict[str, Table] = {
         "Figures drawn from history.csv (and the profiles, final shape) at the end of the run and by "
         "`fenics-plast plot DIR`.", collection=True, discriminator="type", keys={
             "type": Key("str", "history", "history: columns against a column; profile: a thickness output "
-                        "along its group at each step end; shape: the final deformed mesh coloured by eqps.",
+                        "along its group at each step end; shape: the final deformed mesh coloured by a field.",
                         choices=("history", "profile", "shape")),
             "x": Key("str", REQUIRED, "Column of history.csv on the x axis.", when={"type": ("history",)}),
             "y": Key("strs", REQUIRED, "Columns on the y axis (one line each).", when={"type": ("history",)}),
             "output": Key("str", REQUIRED, "Name of a thickness output.", when={"type": ("profile",)}),
+            "field": Key("str", "eqps", "The colour of a shape figure: eqps (equivalent plastic strain) or "
+                         "temperature [K] (Johnson-Cook materials).", choices=("eqps", "temperature"),
+                         when={"type": ("shape",)}),
             "title": Key("str", "", "Figure title (default: the scene name)."),
         }),
     "output": Table("What is written to the output directory.", keys={

@@ -358,6 +358,17 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
         if explicit and m.density is None:
             v.fail(f"materials.{n}.density is missing: required in explicit analyses [kg/m³]")
         h = m.hardening
+        if h is not None and h.law == "johnson_cook":
+            d = f"materials.{n}.hardening"
+            if m.density is None:
+                v.fail(f"materials.{n}.density is missing: required by {d}.law = 'johnson_cook' (adiabatic "
+                       f"heating) [kg/m³]")
+            if h.melting_temperature <= h.room_temperature:
+                v.fail(f"{d}.melting_temperature = {_fmt(h.melting_temperature)} is out of range: must exceed "
+                       f"{d}.room_temperature = {_fmt(h.room_temperature)} [K]")
+            if h.initial_temperature is not None and h.initial_temperature >= h.melting_temperature:
+                v.fail(f"{d}.initial_temperature = {_fmt(h.initial_temperature)} is out of range: must be below "
+                       f"{d}.melting_temperature = {_fmt(h.melting_temperature)} [K]")
         if h is not None and h.law == "table":
             eps, sig, d = h.strain, h.stress, f"materials.{n}.hardening"
             if len(eps) < 2:
@@ -432,6 +443,12 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
     for n, p in t["plots"].items():
         if p.type == "profile" and (p.output not in t["outputs"] or t["outputs"][p.output].quantity != "thickness"):
             v.fail(f"plots.{n}.output = {p.output!r} is not a thickness output")
+    # a temperature is the state of Johnson-Cook materials only
+    thermal = any(m.hardening is not None and m.hardening.law == "johnson_cook" for m in mats.values())
+    asks = [f"outputs.{n}.field" for n, o in t["outputs"].items() if o.quantity == "field" and o.field == "temperature"]
+    asks += [f"plots.{n}.field" for n, p in t["plots"].items() if p.type == "shape" and p.field == "temperature"]
+    if asks and not thermal:
+        v.fail(f"{asks[0]} = 'temperature' needs a material with a temperature: hardening.law = 'johnson_cook'")
     ends = [s.end for s in t["steps"].values()]
     if len(set(ends)) != len(ends):
         v.fail("steps: two steps have the same end")

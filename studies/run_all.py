@@ -38,6 +38,9 @@ STUDIES: dict[str, tuple[str, list[str]]] = {
     "taylor_mesh": (TAYLOR, ["--vary", "mesh.refine=1,2,4"]),
     "taylor_dt": (TAYLOR, ["--vary", "analysis.dt_safety=0.3,0.5,0.8,1.0"]),
     "taylor_model": (TAYLOR, ["--vary", "materials.copper.model=isochoric,seed", "--vary", "mesh.refine=1,2"]),
+    "taylor_velocity": (TAYLOR, ["--vary", "initial_velocity.bar.value=" + ",".join(
+        f"[0.0,-{v:.1f}]" for v in (100, 150, 227, 300, 400)), "--vary", "analysis.stable_step=size,element",
+        "--vary", "analysis.mass_scaling_dt=0,0.02"]),
     "punch_mesh": (PUNCH, ["--vary", "mesh.refine=1,2,3,4"]),
     "punch_increment": (PUNCH, ["--vary", "analysis.max_increment=0.05,0.025,0.0125,0.00625"]),
     "punch_penalty": (PUNCH, ["--vary", "contact.*.penalty=2070,20700,207000"]),

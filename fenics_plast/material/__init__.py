@@ -4,6 +4,11 @@ isochoric variant.  Pure array code: no dolfinx, UFL or MPI here.
 >>> mat = Material(E=117e3, nu=0.35, hardening=Hardening("linear", yield_stress=400.0, modulus=100.0))
 >>> tau, binv, eqps, a = mat.update(Fu, binv_n, eqps_n)        # shapes (n,3,3), (n,3,3), (n,), (n,3,3,3,3)
 
+A Johnson-Cook material (``Hardening("johnson_cook", ...)``, ``mat.thermal``) has a third state
+variable, the temperature T [K], and needs the increment's time dt [s] (plastic strain rate,
+adiabatic heating): ``mat.update_thermal(Fu, binv_n, eqps_n, T_n, dt)`` returns (tau, binv, eqps, T,
+a); ``update`` is the static convention (dt = 0: no rate term, no heating).
+
 The equations live in :mod:`fenics_plast.material.kernels`. Several materials in one body (one per
 set of cells): :class:`~fenics_plast.material.regions.MaterialRegions`, same interface.
 """
@@ -47,6 +52,21 @@ class Material:
         self._law = hardening.code if hardening is not None else kernels.ELASTIC
         self._hp = hardening.params if hardening is not None else np.zeros(1)
         self._no_tangent = np.zeros((1, 3, 3, 3, 3))
+        self._no_temp = np.zeros(1)
+
+    @property
+    def thermal(self) -> bool:
+        """True when the material has a temperature state (Johnson-Cook hardening)."""
+        return self.hardening is not None and self.hardening.thermal
+
+    @property
+    def initial_temperature(self) -> float:
+        """Temperature of a virgin point [K]; 0 for a material without temperature state."""
+        return self.hardening.initial_temperature if self.thermal else 0.0
+
+    def initial_temperatures(self, n: int) -> np.ndarray:
+        """(n,) temperatures of n virgin points [K] (0 without temperature state)."""
+        return np.full(int(n), self.initial_temperature)
 
     @property
     def lame(self) -> tuple[float, float]:
@@ -66,15 +86,23 @@ class Material:
         lmbda, mu = self.lame
         return self._model, lmbda, mu, self._law, self._hp, self.yield_tol
 
-    def update_into(self, Fu, binv_n, eqps_n, tau, binv, eqps, a=None) -> int:
+    def update_into(self, Fu, binv_n, eqps_n, tau, binv, eqps, a=None, temp_n=None, temp=None, dt=0.0) -> int:
         """Constitutive update of n points into preallocated arrays (see :meth:`update`).
 
-        Returns the number of points that yielded.
+        temp_n, temp (n,): temperature in and out [K] (Johnson-Cook; ignored otherwise; None: the
+        initial temperature in, the result not kept); dt: the increment's time [s] (<= 0: static
+        convention, no rate term and no heating). Returns the number of points that yielded.
         """
         model, lmbda, mu, law, hp, tol = self.kernel_args()
         want = a is not None
-        return kernels.update_points(model, Fu, binv_n, eqps_n, lmbda, mu, law, hp, tol, tau, binv, eqps,
-                                     a if want else self._no_tangent, want)
+        if self.thermal:
+            n = Fu.shape[0]
+            temp_n = self.initial_temperatures(n) if temp_n is None else temp_n
+            temp = np.empty(n) if temp is None else temp
+        else:
+            temp_n = temp = self._no_temp
+        return kernels.update_points(model, Fu, binv_n, eqps_n, temp_n, lmbda, mu, law, hp, tol, float(dt), tau,
+                                     binv, eqps, temp, a if want else self._no_tangent, want)
 
     def update(self, Fu, binv_n, eqps_n, tangent: bool = True):
         """Return-mapping update from the converged state (binv_n, eqps_n) under the increment Fu.
@@ -84,7 +112,8 @@ class Material:
         eqps_n : (n,) equivalent plastic strain at t_n.
         Returns tau (n,3,3) Kirchhoff stress [MPa], binv (n,3,3), eqps (n,), and the spatial
         consistent tangent a (n,3,3,3,3) [MPa], delta tau_ij = a_ijkl (delta F F^-1)_kl,
-        or None when tangent is False.
+        or None when tangent is False. Johnson-Cook: at the initial temperature with no rate term
+        and no heating (the static convention; see :meth:`update_thermal`).
         """
         Fu = np.ascontiguousarray(Fu, dtype=float).reshape(-1, 3, 3)
         binv_n = np.ascontiguousarray(binv_n, dtype=float).reshape(-1, 3, 3)
@@ -94,6 +123,20 @@ class Material:
         a = np.empty((n, 3, 3, 3, 3)) if tangent else None
         self.update_into(Fu, binv_n, eqps_n, tau, binv, eqps, a)
         return tau, binv, eqps, a
+
+    def update_thermal(self, Fu, binv_n, eqps_n, temp_n, dt: float, tangent: bool = True):
+        """:meth:`update` with the temperature state and the increment's time: temp_n (n,) [K] at t_n,
+        dt [s] (<= 0: static convention). Returns tau, binv, eqps, temp (n,) [K], a (None if not
+        tangent). For a material without temperature state, temp is temp_n (copied)."""
+        Fu = np.ascontiguousarray(Fu, dtype=float).reshape(-1, 3, 3)
+        binv_n = np.ascontiguousarray(binv_n, dtype=float).reshape(-1, 3, 3)
+        eqps_n = np.ascontiguousarray(eqps_n, dtype=float).reshape(-1)
+        temp_n = np.ascontiguousarray(temp_n, dtype=float).reshape(-1)
+        n = Fu.shape[0]
+        tau, binv, eqps, temp = np.empty((n, 3, 3)), np.empty((n, 3, 3)), np.empty(n), temp_n.copy()
+        a = np.empty((n, 3, 3, 3, 3)) if tangent else None
+        self.update_into(Fu, binv_n, eqps_n, tau, binv, eqps, a, temp_n=temp_n, temp=temp, dt=dt)
+        return tau, binv, eqps, temp, a
 
     def energy(self, binv) -> np.ndarray:
         """Stored elastic energy per reference volume [MPa = mJ/mm^3], shape (n,)."""

@@ -31,6 +31,19 @@ Both: von Mises yield on the Kirchhoff stress, ``f = q - sigma_y(eps_p)``,
 (The seed writes f in terms of sigma = tau/J; yielding on tau is Simo's choice: for metals
 J_e = 1 + O(1e-3) and, unlike sigma, tau does not depend on the spurious plastic dilatation.)
 
+Johnson-Cook (``hardening.JOHNSON_COOK``): sigma_y also depends on the plastic strain rate and the
+temperature T, a state variable of each point (``temp_n`` in, ``temp`` out), and the increment's
+time ``dt`` [s] enters. Backward Euler in all three, T implicit (end of the increment):
+    ``sigma_y = S(dg) = G(eps_n + dg, dg / dt) theta(T(dg))``,  G: strain and rate terms,
+    theta = 1 - T*^m;  ``T(dg) = T_n + chi dg S(dg)`` (adiabatic heating, chi = beta / (rho c_p)),
+    solved for T at each dg (monotone in T, bracketed Newton), and the radial return
+    ``q_tr - 3 mu dg - S(dg) = 0`` by bracketed Newton with the total slope
+    ``H = S'(dg) = G_dg theta + G theta' dT/ddg``, ``dT/ddg = chi theta (G + dg G_dg) / (1 - chi dg G theta')``,
+    where ``G_dg`` carries the rate term's ``C / dg = C / (rate dt)`` above the reference rate.
+    ``dt <= 0`` (static analyses, no physical time): no rate term and no heating (T = T_n), i.e. the
+    quasi-static isothermal law at the point's temperature. The tangent below takes this H, so it
+    is consistent with the implicit T (dt and T_n are fixed data of the increment).
+
 Algorithmic modulus w.r.t. the trial strain (same form for both models; Simo & Hughes, Box 3.2):
     ``D = kappa I(x)I + 2 mu rr_factor I_dev - c  N(x)N``   (rr_factor: the radial-return factor)
     ``rr_factor = 1 - 3 mu dgamma / q_tr``, ``c = 6 mu^2 (1/(3 mu + H) - dgamma/q_tr)``,
@@ -46,7 +59,7 @@ import math
 import numba
 import numpy as np
 
-from .hardening import LINEAR, flow_stress
+from .hardening import JC_C, JC_CHI, JC_RATE0, JOHNSON_COOK, LINEAR, flow_stress, jc_softening, jc_strain_rate
 
 SEED, ISOCHORIC = 0, 1
 ELASTIC = -1  # hardening code meaning "no plasticity"
@@ -219,8 +232,125 @@ def _return_map(q_tr, eps_n, mu, law, hp, yield_tol):
 
 
 @_njit
-def _seed_points(Fu, Bn, eps_n, lmbda, mu, law, hp, tol, tau, Bout, a, want_tangent, bt, nb, eqps):
-    """Seed model for all points: reads Fu, Bn = binv_n, eps_n; writes tau, Bout = binv, eqps, a.
+def _jc_temperature(hp, eps, dg, dt, T_n, th_n, T_start):
+    """End-of-increment temperature of the Johnson-Cook law, its flow stress and total slope in dg.
+
+    With G, G_dg the strain and rate terms (:func:`~fenics_plast.material.hardening.jc_strain_rate`)
+    at eps = eps_n + dg and a = chi dg G, solves h(T) = T - T_n - a theta(T) = 0: h' = 1 - a theta'
+    >= 1, the root lies in [T_n, T_n + a theta_n] (th_n = theta(T_n)). Newton from T_start (the
+    previous iterate of the return map; the upper end when outside), bisection if a step leaves the
+    bracket; a Newton step below 1e-10 T is taken and the loop ends (the error left is of the order
+    a theta'' step^2 / 2, ~1e-20 K), theta updated to first order. dt <= 0, chi = 0 or dg = 0:
+    T = T_n. Returns (T, S, dS/ddg, dT/ddg) [K, MPa, MPa, K], S = G theta(T), the slope along T(dg)
+    with dT/ddg = chi theta (G + dg G_dg) / (1 - a theta').
+    """
+    chi = hp[JC_CHI]
+    G, G_dg = jc_strain_rate(hp, eps, dg, dt)
+    if dt <= 0.0 or chi == 0.0 or dg <= 0.0:
+        th, dth = jc_softening(hp, T_n)
+        return T_n, G * th, G_dg * th, 0.0
+    a = chi * dg * G
+    lo, hi = T_n, T_n + a * th_n
+    T = T_start if lo <= T_start <= hi else hi
+    th, dth = th_n, 0.0
+    for _it in range(60):
+        th, dth = jc_softening(hp, T)
+        h = T - T_n - a * th
+        step = -h / (1.0 - a * dth)
+        if abs(step) <= 1e-10 * abs(T):
+            T += step
+            th += dth * step
+            break
+        if h > 0.0:
+            hi = T
+        else:
+            lo = T
+        nxt = T + step
+        if not (lo <= nxt <= hi):
+            nxt = 0.5 * (lo + hi)
+        if nxt == T:
+            break
+        T = nxt
+    else:
+        th, dth = jc_softening(hp, T)
+    dT = chi * th * (G + dg * G_dg) / (1.0 - a * dth)
+    return T, G * th, G_dg * th + G * dth * dT, dT
+
+
+@_njit
+def _jc_rate_guess(q_tr, sy_n, C, x0, mu3, dg_pp):
+    """Initial dg of the Johnson-Cook return map with the rate term: the root of
+    q_tr - 3 mu dg = sy_n (1 + C ln(dg / x0)), x0 = dt rate_0 (hardening and heating over the increment
+    left out). With u = 3 mu dg / (sy_n C) it reads u + ln(u) = K, K = (q_tr - sy_n) / (sy_n C) -
+    ln(sy_n C / (3 mu x0)); solved by Newton in v = ln(u) (convex, increasing: 3-5 iterations of an exp).
+    Returns dg_pp (the perfectly plastic estimate) when the root lies below the reference rate."""
+    K = (q_tr - sy_n) / (sy_n * C) - math.log(sy_n * C / (mu3 * x0))
+    v = math.log(K) if K > 1.0 else K - 1.0
+    for _it in range(8):
+        ev = math.exp(v)
+        f = ev + v - K
+        v -= f / (ev + 1.0)
+        if abs(f) <= 1e-6 * (abs(K) + 1.0):
+            break
+    dg = math.exp(v) * sy_n * C / mu3
+    return dg if dg > x0 else dg_pp
+
+
+@_njit
+def _return_map_jc(q_tr, eps_n, T_n, dt, mu, hp, yield_tol):
+    """Johnson-Cook return map (module docstring): (dgamma, rr_factor, c, T), T the end-of-increment
+    temperature [K]. The yield check uses the flow stress at dg = 0: reference rate, T_n."""
+    th_n = jc_softening(hp, T_n)[0]
+    sy_n = jc_strain_rate(hp, eps_n, 0.0, dt)[0] * th_n
+    if q_tr - sy_n <= yield_tol * max(sy_n, 1e-300) or q_tr == 0.0:
+        return 0.0, 1.0, 0.0, T_n
+    # g(dg) = q_tr - 3 mu dg - S(dg): g(0) > 0 >= g(q_tr / 3 mu), bisection keeps the bracket. Start
+    # from the perfectly plastic estimate (never from 0: S'(0) may be infinite, eps^n at eps = 0 and
+    # C / dg of the rate term) or, with the rate term, from the smaller root of the rate term alone
+    # (_jc_rate_guess: 2-4 iterations left instead of ~7). With the rate term S is nearly linear in
+    # ln(dg): Newton in x = ln(dg), dg <- dg exp(g / (g' dg)) (Newton in dg creeps up the logarithm).
+    lo, hi = 0.0, q_tr / (3.0 * mu)
+    dg = (q_tr - sy_n) / (3.0 * mu)
+    log_newton = dt > 0.0 and hp[JC_C] != 0.0
+    if log_newton and sy_n > 0.0:
+        dg = min(dg, _jc_rate_guess(q_tr, sy_n, hp[JC_C], dt * hp[JC_RATE0], 3.0 * mu, dg))
+    # T_guess: where the inner solve for T starts, the last T moved along dT/ddg
+    T, sy, h, dT = T_n, sy_n, 0.0, 0.0
+    T_guess = T_n
+    for _it in range(100):
+        T, sy, h, dT = _jc_temperature(hp, eps_n + dg, dg, dt, T_n, th_n, T_guess)
+        g = q_tr - 3.0 * mu * dg - sy
+        if abs(g) <= 1e-14 * q_tr:
+            break
+        if g > 0.0:
+            lo = dg
+        else:
+            hi = dg
+        slope = 3.0 * mu + h
+        if slope <= 0.0:
+            nxt = -1.0
+        elif log_newton:
+            nxt = dg * math.exp(g / (slope * dg))
+        else:
+            nxt = dg + g / slope
+        if not (lo < nxt < hi):
+            nxt = 0.5 * (lo + hi)
+        if nxt == dg:
+            break
+        T_guess = T + dT * (nxt - dg)
+        dg = nxt
+    else:
+        T, sy, h, dT = _jc_temperature(hp, eps_n + dg, dg, dt, T_n, th_n, T_guess)
+    rr_factor = 1.0 - 3.0 * mu * dg / q_tr
+    c = 6.0 * mu * mu * (1.0 / (3.0 * mu + h) - dg / q_tr)
+    return dg, rr_factor, c, T
+
+
+@_njit
+def _seed_points(Fu, Bn, eps_n, T_n, lmbda, mu, law, hp, tol, dt, tau, Bout, a, want_tangent, bt, nb, eqps,
+                 T_out):
+    """Seed model for all points: reads Fu, Bn = binv_n, eps_n (and T_n); writes tau, Bout = binv,
+    eqps, a (and T_out: Johnson-Cook only; other laws leave it alone).
 
     The loop over points lives here, not in the caller: a call per point costs more than the
     point's arithmetic (measured 3x).  Symmetric tensors are held as their upper triangles in
@@ -241,7 +371,11 @@ def _seed_points(Fu, Bn, eps_n, lmbda, mu, law, hp, tol, tau, Bout, a, want_tang
         s00, s11, s22 = s00 - mean, s11 - mean, s22 - mean  # s = dev(2 mu e)
         ss = s00 * s00 + s11 * s11 + s22 * s22 + 2.0 * (s01 * s01 + s02 * s02 + s12 * s12)  # s:s
         q_tr = math.sqrt(1.5 * ss)
-        dg, rr_factor, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
+        if law == JOHNSON_COOK:
+            dg, rr_factor, c, T_q = _return_map_jc(q_tr, eps_n[q], T_n[q], dt, mu, hp, tol)
+            T_out[q] = T_q
+        else:
+            dg, rr_factor, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
         eqps[q] = eps_n[q] + dg
         nplastic += dg > 0.0
         # plastic corrector (14): binv = bt + 2 dg n,  n = 3/2 s_tr/q_tr;  tau = tau_tr - 2 mu dg n
@@ -318,7 +452,8 @@ def _spectral(Q, v0, v1, v2, out, q):
 
 
 @_njit
-def _isochoric_points(Fu, Bn, eps_n, lmbda, mu, law, hp, tol, tau, Bout, a, want_tangent, bt, Q, beta, dtau, eqps):
+def _isochoric_points(Fu, Bn, eps_n, T_n, lmbda, mu, law, hp, tol, dt, tau, Bout, a, want_tangent, bt, Q, beta,
+                      dtau, eqps, T_out):
     """Isochoric (exponential map, logarithmic strain) model for all points (as _seed_points)."""
     nplastic = 0
     for q in range(Fu.shape[0]):
@@ -335,7 +470,11 @@ def _isochoric_points(Fu, Bn, eps_n, lmbda, mu, law, hp, tol, tau, Bout, a, want
         s1 = 2.0 * mu * (e1 - tr_e / 3.0)
         s2 = 2.0 * mu * (e2 - tr_e / 3.0)
         q_tr = math.sqrt(1.5 * (s0 * s0 + s1 * s1 + s2 * s2))
-        dg, rr_factor, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
+        if law == JOHNSON_COOK:
+            dg, rr_factor, c, T_q = _return_map_jc(q_tr, eps_n[q], T_n[q], dt, mu, hp, tol)
+            T_out[q] = T_q
+        else:
+            dg, rr_factor, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
         eqps[q] = eps_n[q] + dg
         nplastic += dg > 0.0
         fac = 1.5 * dg / q_tr if dg > 0.0 else 0.0  # n_A = 3/2 s_A / q_tr
@@ -396,12 +535,16 @@ def _isochoric_points(Fu, Bn, eps_n, lmbda, mu, law, hp, tol, tau, Bout, a, want
 
 
 @_njit
-def update_points(model, Fu, binv_n, eqps_n, lmbda, mu, law, hp, yield_tol, tau, binv, eqps, a, want_tangent):
+def update_points(model, Fu, binv_n, eqps_n, temp_n, lmbda, mu, law, hp, yield_tol, dt, tau, binv, eqps, temp, a,
+                  want_tangent):
     """Update n points: Fu, binv_n (n,3,3), eqps_n (n,) -> tau, binv (n,3,3), eqps (n,), a (n,3,3,3,3).
 
+    temp_n -> temp (n,): temperature [K], read and written by the Johnson-Cook law only (other laws:
+    may be dummy (1,) arrays); dt: the increment's time [s] (Johnson-Cook rate and heating; <= 0:
+    none, the static convention).
     a is ignored (may be a dummy (1,3,3,3,3) array) when want_tangent is False.
-    binv may be binv_n and eqps may be eqps_n (update in place): each point is read before it is written.
-    Returns the number of points that yielded in this update.
+    binv may be binv_n, eqps may be eqps_n and temp may be temp_n (update in place): each point is read
+    before it is written. Returns the number of points that yielded in this update.
     """
     bt = np.empty((3, 3))
     Q = np.empty((3, 3))
@@ -409,10 +552,10 @@ def update_points(model, Fu, binv_n, eqps_n, lmbda, mu, law, hp, yield_tol, tau,
     dtau = np.empty((3, 3))
     nb = np.empty((3, 3))
     if model == SEED:
-        return _seed_points(Fu, binv_n, eqps_n, lmbda, mu, law, hp, yield_tol, tau, binv, a, want_tangent,
-                            bt, nb, eqps)
-    return _isochoric_points(Fu, binv_n, eqps_n, lmbda, mu, law, hp, yield_tol, tau, binv, a, want_tangent,
-                             bt, Q, beta, dtau, eqps)
+        return _seed_points(Fu, binv_n, eqps_n, temp_n, lmbda, mu, law, hp, yield_tol, dt, tau, binv, a,
+                            want_tangent, bt, nb, eqps, temp)
+    return _isochoric_points(Fu, binv_n, eqps_n, temp_n, lmbda, mu, law, hp, yield_tol, dt, tau, binv, a,
+                             want_tangent, bt, Q, beta, dtau, eqps, temp)
 
 
 @_njit

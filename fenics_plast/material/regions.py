@@ -23,14 +23,16 @@ _njit = numba.njit(cache=True, fastmath={"contract", "arcp", "nsz"}, nogil=True)
 
 
 @_njit
-def update_regions(order, offsets, models, lams, mus, laws, hps, tols, Fu, binv_n, eqps_n, tau, binv, eqps, a,
-                   want_tangent, Fu_b, B_b, e_b, tau_b, a_b):
+def update_regions(order, offsets, models, lams, mus, laws, hps, tols, Fu, binv_n, eqps_n, temp_n, dt, tau, binv,
+                   eqps, temp, a, want_tangent, Fu_b, B_b, e_b, T_b, tau_b, a_b):
     """Update every point with its own material (the tables of :meth:`MaterialRegions.kernel_args`).
 
     order (n,), offsets (nmat + 1,): the points of material m are order[offsets[m]:offsets[m + 1]].
-    Fu, binv_n (n,3,3), eqps_n (n,) in; tau, binv (n,3,3), eqps (n,) out, a (n,3,3,3,3) out when
-    want_tangent (a dummy otherwise); binv may be binv_n and eqps may be eqps_n (in place).
-    Fu_b, B_b, tau_b (m,3,3), e_b (m,), a_b (m,3,3,3,3) (m >= the largest material's point count;
+    Fu, binv_n (n,3,3), eqps_n, temp_n (n,) in; tau, binv (n,3,3), eqps, temp (n,) out, a (n,3,3,3,3)
+    out when want_tangent (a dummy otherwise); binv may be binv_n, eqps eqps_n, temp temp_n (in place).
+    dt: the increment's time [s] (Johnson-Cook; <= 0: static convention); the temperature of a point
+    whose material has no temperature state is copied through.
+    Fu_b, B_b, tau_b (m,3,3), e_b, T_b (m,), a_b (m,3,3,3,3) (m >= the largest material's point count;
     a_b may be (1,3,3,3,3) without tangent): work arrays. Returns the number of points that yielded.
     """
     nplastic = 0
@@ -44,9 +46,11 @@ def update_regions(order, offsets, models, lams, mus, laws, hps, tols, Fu, binv_
                     Fu_b[j, r, s] = Fu[p, r, s]
                     B_b[j, r, s] = binv_n[p, r, s]
             e_b[j] = eqps_n[p]
+            T_b[j] = temp_n[p]
         ab = a_b[:k] if want_tangent else a_b[:1]
-        nplastic += kernels.update_points(models[m], Fu_b[:k], B_b[:k], e_b[:k], lams[m], mus[m], laws[m],
-                                          hps[m], tols[m], tau_b[:k], B_b[:k], e_b[:k], ab, want_tangent)
+        nplastic += kernels.update_points(models[m], Fu_b[:k], B_b[:k], e_b[:k], T_b[:k], lams[m], mus[m],
+                                          laws[m], hps[m], tols[m], dt, tau_b[:k], B_b[:k], e_b[:k], T_b[:k], ab,
+                                          want_tangent)
         for j in range(k):
             p = order[lo + j]
             for r in range(3):
@@ -54,6 +58,7 @@ def update_regions(order, offsets, models, lams, mus, laws, hps, tols, Fu, binv_
                     tau[p, r, s] = tau_b[j, r, s]
                     binv[p, r, s] = B_b[j, r, s]
             eqps[p] = e_b[j]
+            temp[p] = T_b[j]
             if want_tangent:
                 for r in range(3):
                     for s in range(3):
@@ -76,7 +81,8 @@ class MaterialRegions:
     Attributes: ``materials`` (list), ``cells`` (list of sorted int arrays, one per material),
     ``cell_material`` (n_cells,) int64: the material index of each owned cell; ``E`` the largest
     Young's modulus [MPa] (default contact penalties); ``model`` the models' names ("seed",
-    "isochoric" or both joined by "+"). There is no single ``lame``: see :meth:`per_cell`.
+    "isochoric" or both joined by "+"); ``thermal``: some material has a temperature state
+    (Johnson-Cook). There is no single ``lame``: see :meth:`per_cell`.
     """
 
     def __init__(self, parts, n_cells: int):
@@ -107,6 +113,7 @@ class MaterialRegions:
                         np.array([a[2] for a in args]), np.array([a[3] for a in args], dtype=np.int64),
                         hps, np.array([a[5] for a in args]))
         self.E = max(m.E for m in self.materials)
+        self.thermal = any(m.thermal for m in self.materials)
         self.model = "+".join(sorted({m.model for m in self.materials}))
         self._layouts = {}                  # nq -> point_layout(nq)
         self._tangent_work = {}             # nq -> tangent work array of update_into
@@ -130,6 +137,13 @@ class MaterialRegions:
             raise ValueError(f"{densities.size} densities given for {len(self.materials)} materials")
         return np.array([m.wave_speed(float(r)) for m, r in zip(self.materials, densities)])
 
+    def initial_temperatures(self, n: int) -> np.ndarray:
+        """(n,) temperatures [K] of n virgin points (cell-major), each its material's
+        :attr:`Material.initial_temperature` (0 for a material without temperature state)."""
+        nq = self._nq(int(n))
+        t0 = np.array([m.initial_temperature for m in self.materials])
+        return np.repeat(t0[self.cell_material], nq)
+
     def kernel_args(self) -> tuple:
         """Per-material tables in the order of :meth:`Material.kernel_args`: models (nmat,) int64,
         lmbda, mu (nmat,) [MPa], hardening codes (nmat,) int64, hardening parameters (nmat, k)
@@ -137,7 +151,7 @@ class MaterialRegions:
         return self._tables
 
     def point_layout(self, nq: int) -> tuple:
-        """(order, offsets, Fu_b, B_b, e_b, tau_b) for ``nq`` points per cell: the points of material
+        """(order, offsets, Fu_b, B_b, e_b, T_b, tau_b) for ``nq`` points per cell: the points of material
         m are order[offsets[m]:offsets[m + 1]] (cell-major numbering), and work arrays for
         :func:`update_regions` sized for the largest material. Cached per nq; the arrays are reused
         by every call (not thread-safe)."""
@@ -148,7 +162,8 @@ class MaterialRegions:
             order = np.concatenate(pts).astype(np.int64)
             offsets = np.concatenate([[0], np.cumsum([p.size for p in pts])]).astype(np.int64)
             m = max(1, max(p.size for p in pts))
-            lay = (order, offsets, np.zeros((m, 3, 3)), np.zeros((m, 3, 3)), np.zeros(m), np.zeros((m, 3, 3)))
+            lay = (order, offsets, np.zeros((m, 3, 3)), np.zeros((m, 3, 3)), np.zeros(m), np.zeros(m),
+                   np.zeros((m, 3, 3)))
             self._layouts[nq] = lay
         return lay
 
@@ -161,12 +176,16 @@ class MaterialRegions:
             raise ValueError(f"{n} points are not a whole number per cell ({self.n_cells} cells)")
         return n // self.n_cells
 
-    def update_into(self, Fu, binv_n, eqps_n, tau, binv, eqps, a=None) -> int:
+    def update_into(self, Fu, binv_n, eqps_n, tau, binv, eqps, a=None, temp_n=None, temp=None, dt=0.0) -> int:
         """Constitutive update of the n = n_cells nq points (cell-major) into preallocated arrays, each
-        point with its cell's material (see :meth:`Material.update_into`). Returns the number of
-        points that yielded."""
+        point with its cell's material (see :meth:`Material.update_into`; temp_n None: the initial
+        temperatures, temp None: not kept). Returns the number of points that yielded."""
         nq = self._nq(Fu.shape[0])
-        order, offsets, Fu_b, B_b, e_b, tau_b = self.point_layout(nq)
+        order, offsets, Fu_b, B_b, e_b, T_b, tau_b = self.point_layout(nq)
+        if temp_n is None:
+            temp_n = self.initial_temperatures(Fu.shape[0])
+        if temp is None:
+            temp = np.empty(Fu.shape[0])
         want = a is not None
         if want:
             a_b = self._tangent_work.get(nq)
@@ -174,8 +193,8 @@ class MaterialRegions:
                 a_b = self._tangent_work[nq] = np.zeros((Fu_b.shape[0], 3, 3, 3, 3))
         else:
             a = a_b = self._no_tangent
-        return update_regions(order, offsets, *self._tables, Fu, binv_n, eqps_n, tau, binv, eqps, a, want,
-                              Fu_b, B_b, e_b, tau_b, a_b)
+        return update_regions(order, offsets, *self._tables, Fu, binv_n, eqps_n, temp_n, float(dt), tau, binv, eqps,
+                              temp, a, want, Fu_b, B_b, e_b, T_b, tau_b, a_b)
 
     def update(self, Fu, binv_n, eqps_n, tangent: bool = True):
         """As :meth:`Material.update` (returns new arrays tau, binv, eqps, a)."""
@@ -187,6 +206,18 @@ class MaterialRegions:
         a = np.empty((n, 3, 3, 3, 3)) if tangent else None
         self.update_into(Fu, binv_n, eqps_n, tau, binv, eqps, a)
         return tau, binv, eqps, a
+
+    def update_thermal(self, Fu, binv_n, eqps_n, temp_n, dt: float, tangent: bool = True):
+        """As :meth:`Material.update_thermal` (returns new arrays tau, binv, eqps, temp, a)."""
+        Fu = np.ascontiguousarray(Fu, dtype=float).reshape(-1, 3, 3)
+        binv_n = np.ascontiguousarray(binv_n, dtype=float).reshape(-1, 3, 3)
+        eqps_n = np.ascontiguousarray(eqps_n, dtype=float).reshape(-1)
+        temp_n = np.ascontiguousarray(temp_n, dtype=float).reshape(-1)
+        n = Fu.shape[0]
+        tau, binv, eqps, temp = np.empty((n, 3, 3)), np.empty((n, 3, 3)), np.empty(n), np.empty(n)
+        a = np.empty((n, 3, 3, 3, 3)) if tangent else None
+        self.update_into(Fu, binv_n, eqps_n, tau, binv, eqps, a, temp_n=temp_n, temp=temp, dt=dt)
+        return tau, binv, eqps, temp, a
 
     def energy(self, binv) -> np.ndarray:
         """Stored elastic energy per reference volume [MPa = mJ/mm^3] of each point with its cell's

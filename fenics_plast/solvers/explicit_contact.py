@@ -248,6 +248,11 @@ class ContactSet:
         self.pen = np.zeros(len(P))
         self._dt_stable = self._combined_dt() if P else math.inf
 
+    def mass_changed(self):
+        """Recompute the springs' stable-step limit after the solver's nodal mass changed (selective
+        mass scaling, a restored checkpoint); collective."""
+        self._dt_stable = self._combined_dt() if self.pairs else math.inf
+
     def _combined_dt(self):
         """The penalty springs' stable-step limit with the springs of all pairs summed per node
         (collective: called when a pair is added)."""

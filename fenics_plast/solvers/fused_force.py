@@ -8,7 +8,8 @@ The compiled-loop twin of the UFL path (``Kinematics.Fu`` + ``QuadratureMap.upda
     F       = I + Grad u,  hoop F_hh = 1 + u_r / R  (axisymmetric; 1 in plane strain)
     theta_c = sum_q J_q W_q / sum_q W_q                      mean dilatation of cell c (Q1/P0)
     Fu      = ((theta J_n) / (theta_n J))^(1/3) F F_n^-1      F-bar increment (seed eq. 10)
-    tau     = material(Fu, b_e^-1_n, eps_p_n)                 seed eqs. (11)-(14) / isochoric
+    tau     = material(Fu, b_e^-1_n, eps_p_n, T_n, dt)        seed eqs. (11)-(14) / isochoric (T, dt:
+                                                              Johnson-Cook rate and heating)
     f_ai    = sum_q (J / theta) tau_ij (Grad N_a F^-1)_j W_q  (+ tau_hh N_a / (R F_hh) for i = r)
 
 with W_q = w(X_q) |det J0(X_q)| q_w the reference quadrature weights (w = 2 pi R in
@@ -205,7 +206,7 @@ def _force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f):
 
 @_njit
 def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, law, hp, yield_tol, regions,
-                   binv, eqps, tau, Fu, Finv, factor, theta, f):
+                   binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
     """Kinematics, material update and commit, nodal internal force, in one call.
 
     u, u_n : (2 n_nodes,) current and previous displacement (owned + ghost) [mm].
@@ -214,36 +215,39 @@ def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, 
         per-material tables of ``MaterialRegions.kernel_args()`` together with ``regions``.
     regions : None (one material) or ``MaterialRegions.point_layout(nq)``: the points of each
         material and work arrays (several materials; :func:`fenics_plast.material.regions.update_regions`).
-    binv, eqps : committed state (n,3,3), (n,), updated in place (explicit steps commit every update).
+    binv, eqps, temp : committed state (n,3,3), (n,), (n,) (temperature [K], Johnson-Cook), updated in
+        place (explicit steps commit every update).
+    dt : (1,) the step's time increment [s] (Johnson-Cook plastic strain rate and heating; set by the
+        solver before each step, 0 at the start).
     tau : (n,3,3) Kirchhoff stress out [MPa]; Fu (n,3,3) work array whose off-block entries stay 0;
     Finv (n,5), factor (n,) work arrays; theta (nc,) mean dilatation out; f (2 n_nodes,) force out [N].
     Returns True if the stress and the force are finite.
     """
     _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta)
-    _material_update(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, tau)
+    _material_update(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, temp, dt[0], tau)
     return _force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f)
 
 
-def _material_update(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
+def _material_update(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, temp, dt, tau):
     """Material update and commit of every point (compiled: see the overload below)."""
     raise NotImplementedError("compiled code only")
 
 
 @overload(_material_update)
-def _material_update_impl(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
+def _material_update_impl(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, temp, dt, tau):
     """Chosen by the type of ``regions`` when numba compiles: None (or left out), one material
     (``kernels.update_points`` over all points, the call of a one-material body); a tuple, several
     materials (:func:`update_regions` with the per-material tables in model..yield_tol)."""
     if isinstance(regions, types.NoneType):
-        def one(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
+        def one(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, temp, dt, tau):
             no_tangent = np.empty((1, 3, 3, 3, 3))
-            kernels.update_points(model, Fu, binv, eqps, lmbda, mu, law, hp, yield_tol, tau, binv, eqps,
-                                  no_tangent, False)
+            kernels.update_points(model, Fu, binv, eqps, temp, lmbda, mu, law, hp, yield_tol, dt, tau, binv, eqps,
+                                  temp, no_tangent, False)
         return one
 
-    def several(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, tau):
+    def several(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, temp, dt, tau):
         no_tangent = np.empty((1, 3, 3, 3, 3))
-        order, offsets, Fu_b, B_b, e_b, tau_b = regions
-        update_regions(order, offsets, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, tau, binv, eqps,
-                       no_tangent, False, Fu_b, B_b, e_b, tau_b, no_tangent)
+        order, offsets, Fu_b, B_b, e_b, T_b, tau_b = regions
+        update_regions(order, offsets, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, temp, dt, tau, binv,
+                       eqps, temp, no_tangent, False, Fu_b, B_b, e_b, T_b, tau_b, no_tangent)
     return several

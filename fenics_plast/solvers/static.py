@@ -434,19 +434,23 @@ class StaticSolver:
     def state_dict(self):
         """The state a resumed run needs, at a converged increment (collective; see
         fenics_plast.checkpoint): the owned entries of w, w_n, w_nm1 (displacement [mm] and, q1p0,
-        dilatation), the committed quadrature-point state binv (n,3,3) and eqps (n,), keyed by node,
-        cell or point; the load factor, force scale [N], round-off floor [N], counters, the increment
-        and cut-back records, and MUMPS ICNTL(14)."""
+        dilatation), the committed quadrature-point state binv (n,3,3) and eqps (n,) (and the
+        temperature (n,) [K] of Johnson-Cook materials), keyed by node, cell or point; the load factor,
+        force scale [N], round-off floor [N], counters, the increment and cut-back records, and MUMPS
+        ICNTL(14)."""
         from fenics_plast.checkpoint import Keyed, owned_keyed
         kw, kq = self._checkpoint_keys()
         icntl = PETSc.Options().getInt(self.prefix + "mat_mumps_icntl_14", 100) if self._setup_done else 100
-        return dict(w=owned_keyed(self.w, kw), w_n=owned_keyed(self.w_n, kw), w_nm1=owned_keyed(self.w_nm1, kw),
-                    binv=Keyed(self.qmap.binv, kq), eqps=Keyed(self.qmap.eqps, kq),
-                    lam_converged=self.lam_converged, force_scale=self.force_scale,
-                    roundoff_floor=self.roundoff_floor, total_iterations=self.total_iterations,
-                    total_iterations_failed=self.total_iterations_failed, increments=self.increments,
-                    cutbacks=self.cutbacks, mumps_workspace_raises=getattr(self, "mumps_workspace_raises", []),
-                    mumps_icntl_14=icntl)
+        d = dict(w=owned_keyed(self.w, kw), w_n=owned_keyed(self.w_n, kw), w_nm1=owned_keyed(self.w_nm1, kw),
+                 binv=Keyed(self.qmap.binv, kq), eqps=Keyed(self.qmap.eqps, kq),
+                 lam_converged=self.lam_converged, force_scale=self.force_scale,
+                 roundoff_floor=self.roundoff_floor, total_iterations=self.total_iterations,
+                 total_iterations_failed=self.total_iterations_failed, increments=self.increments,
+                 cutbacks=self.cutbacks, mumps_workspace_raises=getattr(self, "mumps_workspace_raises", []),
+                 mumps_icntl_14=icntl)
+        if self.qmap.thermal:
+            d.update(temperature=Keyed(self.qmap.temperature, kq))      # Johnson-Cook [K]
+        return d
 
     def _checkpoint_keys(self):
         if not hasattr(self, "_ck_keys"):
@@ -459,7 +463,8 @@ class StaticSolver:
         checkpoint is of another mesh or layout."""
         from fenics_plast import checkpoint as ck
         ck.require(d, ["w", "w_n", "w_nm1", "binv", "eqps", "lam_converged", "force_scale", "roundoff_floor",
-                       "total_iterations", "increments", "cutbacks"], "static solver")
+                       "total_iterations", "increments", "cutbacks"] + (["temperature"] if self.qmap.thermal else []),
+                   "static solver")
         if not self._setup_done:
             self.setup()
         kw, kq = self._checkpoint_keys()
@@ -467,7 +472,7 @@ class StaticSolver:
         try:
             n = self.W.dofmap.index_map.size_local * self.W.dofmap.index_map_bs
             owned = {k: d[k].take(kw[:n]) for k in ("w", "w_n", "w_nm1")}
-            qp = {k: d[k].take(kq) for k in ("binv", "eqps")}
+            qp = {k: d[k].take(kq) for k in ("binv", "eqps") + (("temperature",) if self.qmap.thermal else ())}
         except ck.CheckpointError as e:
             why = str(e)
         ck.raise_on_any(self.comm, why)
@@ -475,7 +480,7 @@ class StaticSolver:
             fun = getattr(self, k)
             fun.x.array[:n] = owned[k]
             fun.x.scatter_forward()
-        for k in ("binv", "eqps"):
+        for k in qp:
             getattr(self.qmap, k)[:] = qp[k]
             getattr(self.qmap, k + "_trial")[:] = qp[k]
         self.lam_converged = float(d["lam_converged"])

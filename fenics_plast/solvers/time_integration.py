@@ -94,6 +94,111 @@ def quad_min_size(P):
     return _quad_min_size(P.reshape(-1, 2), cd, np.empty(n))
 
 
+_G = 1.0 / np.sqrt(3.0)
+_XI = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])    # cyclic vertex order
+
+
+@numba.njit(cache=True)
+def _quad_eig_dt(x, cell_dofs, cells, mass, lam, mu, axisymmetric, fbar, out):
+    """2 / omega_max of the listed cells' elastic elements: out[k] for cell ``cells[k]``.
+
+    omega_max^2 is the largest eigenvalue of M^-1/2 K M^-1/2 with K the small-strain elastic
+    stiffness of the cell in its current shape x (2 x 2 Gauss points, weight 2 pi r in
+    axisymmetry, hoop strain u_r / r; fbar: the volumetric part through the cell's mean
+    dilatation, as Q1/P0 does) with moduli lam[c], mu[c] [MPa], and M the cell's share of its
+    nodes' lumped mass mass[c] (4,) [tonne] (cyclic order). By Irons' theorem the assembled
+    system's omega_max is at most the largest element value.
+    """
+    B = np.zeros((4, 4, 8))
+    W = np.zeros(4)
+    K = np.zeros((8, 8))
+    for k in range(cells.shape[0]):
+        c = cells[k]
+        lm, m = lam[c], mu[c]
+        kap = lm + 2.0 * m / 3.0
+        B[:] = 0.0
+        vol = 0.0
+        q = 0
+        for a in range(2):
+            for b in range(2):
+                xi = (2 * a - 1) * _G
+                eta = (2 * b - 1) * _G
+                j00 = j01 = j10 = j11 = 0.0
+                r = 0.0
+                N = np.empty(4)
+                dN = np.empty((4, 2))
+                for v in range(4):
+                    N[v] = 0.25 * (1.0 + xi * _XI[v, 0]) * (1.0 + eta * _XI[v, 1])
+                    dN[v, 0] = 0.25 * _XI[v, 0] * (1.0 + eta * _XI[v, 1])
+                    dN[v, 1] = 0.25 * _XI[v, 1] * (1.0 + xi * _XI[v, 0])
+                    px = x[cell_dofs[c, v], 0]
+                    py = x[cell_dofs[c, v], 1]
+                    j00 += dN[v, 0] * px
+                    j01 += dN[v, 1] * px
+                    j10 += dN[v, 0] * py
+                    j11 += dN[v, 1] * py
+                    r += N[v] * px
+                det = j00 * j11 - j01 * j10
+                w = abs(det) * (2.0 * np.pi * r if axisymmetric else 1.0)
+                W[q] = w
+                vol += w
+                for v in range(4):
+                    # d N / d x = J^-T d N / d xi, J = [[dx/dxi, dx/deta], [dy/dxi, dy/deta]]
+                    gx = (j11 * dN[v, 0] - j10 * dN[v, 1]) / det
+                    gy = (-j01 * dN[v, 0] + j00 * dN[v, 1]) / det
+                    B[q, 0, 2 * v] = gx                  # rr
+                    B[q, 1, 2 * v + 1] = gy              # zz
+                    if axisymmetric:
+                        B[q, 2, 2 * v] = N[v] / r        # hoop
+                    B[q, 3, 2 * v] = gy                  # engineering shear
+                    B[q, 3, 2 * v + 1] = gx
+                q += 1
+        bbar = np.zeros(8)
+        for q in range(4):
+            for i in range(8):
+                bbar[i] += (B[q, 0, i] + B[q, 1, i] + B[q, 2, i]) * W[q] / vol
+        K[:] = 0.0
+        for q in range(4):
+            tr = B[q, 0] + B[q, 1] + B[q, 2]
+            vb = bbar if fbar else tr
+            for i in range(8):
+                for j in range(8):
+                    dev = 0.0
+                    for s in range(3):
+                        dev += 2.0 * m * (B[q, s, i] - tr[i] / 3.0) * (B[q, s, j] - tr[j] / 3.0)
+                    dev += m * B[q, 3, i] * B[q, 3, j]
+                    K[i, j] += (dev + kap * vb[i] * vb[j]) * W[q]
+        for i in range(8):
+            for j in range(8):
+                K[i, j] /= np.sqrt(mass[c, i // 2] * mass[c, j // 2])
+        w2 = np.linalg.eigvalsh(K)[-1]
+        out[k] = 2.0 / np.sqrt(w2) if w2 > 0.0 else np.inf
+    return out
+
+
+@numba.njit(cache=True)
+def _lazy_min(d, order, x, cell_dofs, mass, lam, mu, scale_sqrt, axisymmetric, fbar):
+    """min over the cells of max(d[c], e[c] sqrt(s_c)) (e: :func:`_quad_eig_dt`), visiting the cells in
+    the order of d (ascending, ``order``) and stopping when d reaches the minimum found: the
+    eigenvalue is computed for the few cells whose size estimate d is below the result. Returns
+    (minimum, cell)."""
+    best = np.inf
+    arg = -1
+    one = np.empty(1, dtype=np.int64)
+    e = np.empty(1)
+    for k in range(order.shape[0]):
+        c = order[k]
+        if d[c] >= best:
+            break
+        one[0] = c
+        _quad_eig_dt(x, cell_dofs, one, mass, lam, mu, axisymmetric, fbar, e)
+        v = max(d[c], e[0] * scale_sqrt[c])
+        if v < best:
+            best = v
+            arg = c
+    return best, arg
+
+
 # ----------------------------------------------------------------------------------------------
 # plain kernels: homogeneous velocity constraints only
 
@@ -563,8 +668,9 @@ class Drivers:
         return out
 
     # -- energies ----------------------------------------------------------------------------
-    def energies(self, ke, w_int, w_ext, comm):
-        """The energy entries of the drivers and the balance error (collective)."""
+    def energies(self, ke, w_int, w_ext, comm, e_mass=0.0):
+        """The energy entries of the drivers and the balance error (collective); ``e_mass``: the kinetic
+        energy brought in by mass scaling [N mm] (summed), a source term of the balance."""
         s, acc = self.s, self.s.contact.acc
         loc = np.concatenate([[self.W_load, float(self.wset.sum())], acc[:, 0], acc[:, 1]])
         tot = comm.allreduce(loc, op=MPI.SUM) if comm.size > 1 else loc
@@ -573,8 +679,8 @@ class Drivers:
         e_c, w_tool = float(tot[2:2 + npairs].sum()), float(tot[2 + npairs:].sum())
         stored = sum(p.stored_energy() for p in s.contact.pairs)
         w_ext = w_ext + w_pres + w_load + w_tool
-        scale = s.KE0 + abs(w_ext)
-        err = abs(ke + w_int + e_c - s.KE0 - w_ext) / (scale if scale > 0.0 else 1.0)
+        scale = s.KE0 + abs(w_ext) + e_mass
+        err = abs(ke + w_int + e_c - s.KE0 - w_ext - e_mass) / (scale if scale > 0.0 else 1.0)
         return dict(external_work=w_ext, balance_error=err, prescribed_work=w_pres, load_work=w_load,
                     tool_work=w_tool, contact_work=e_c, contact_stored=stored)
 

@@ -26,6 +26,7 @@ ORDERED_KEYS: dict[str, int] = {
     "mesh.refine": +1,
     "mesh.parameters.cells*": +1,
     "analysis.dt_safety": -1,
+    "analysis.mass_scaling_dt": -1,          # 0 (no mass scaling) is the finest
     "analysis.time_steps": +1,
     "analysis.increments": +1,
     "steps.*.increments": +1,
