@@ -31,6 +31,7 @@ TEMPLATE = Path("studies") / "STUDIES.md.in"
 PAGE = Path("docs") / "STUDIES.md"
 
 TAYLOR = "demos/taylor_bar.toml"
+ACCURATE = "demos/taylor_bar_accurate.toml"
 PUNCH = "demos/punch_stretching.toml"
 
 #: name -> (scene file, study arguments). The order is the order they run in.
@@ -41,6 +42,9 @@ STUDIES: dict[str, tuple[str, list[str]]] = {
     "taylor_velocity": (TAYLOR, ["--vary", "initial_velocity.bar.value=" + ",".join(
         f"[0.0,-{v:.1f}]" for v in (100, 150, 227, 300, 400)), "--vary", "analysis.stable_step=size,element",
         "--vary", "analysis.mass_scaling_dt=0,0.02"]),
+    "taylor_graded": (ACCURATE, ["--vary", "mesh.parameters.axial_size_ratio=1,4,16", "--vary",
+                                 "mesh.parameters.radial_size_ratio=1,4", "--vary", "analysis.stable_step=size,element"]),
+    "taylor_accurate": (ACCURATE, ["--vary", "mesh.refine=1,2,4", "--vary", "analysis.dt_safety=0.8,1.0"]),
     "punch_mesh": (PUNCH, ["--vary", "mesh.refine=1,2,3,4"]),
     "punch_increment": (PUNCH, ["--vary", "analysis.max_increment=0.05,0.025,0.0125,0.00625"]),
     "punch_penalty": (PUNCH, ["--vary", "contact.*.penalty=2070,20700,207000"]),

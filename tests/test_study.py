@@ -181,6 +181,12 @@ def test_declared_outputs_and_published_references(tmp_path, monkeypatch):
         assert not any(c.startswith("err_paper_") for c in _read_csv(out / "study.csv")[0])
         md = (out / "study.md").read_text()
         assert "Published references (`final_radius_mm`) not compared" in md and "## Against" not in md
+    # a mesh's grading and the stable-step estimate are discretisation keys too (they order nothing)
+    s = st.run_study(TAYLOR, [st.parse_vary("mesh.parameters.axial_grading=1,1.05")], tmp_path / "d",
+                     ["analysis.stable_step=element"], **quiet)
+    assert s.paper == {"final_radius_mm": 7.11} and not s.paper_note
+    assert st.non_discretisation_keys([st.parse_vary("mesh.parameters.radial_size_ratio=1,4")],
+                                      ["analysis.stable_step=size", "mesh.parameters.radius=3"]) == ["mesh.parameters.radius"]
     # --results overrides the declared key results
     s = st.run_study(TAYLOR, [st.parse_vary("mesh.refine=1,2")], tmp_path / "c", results=["cells"], **quiet)
     assert s.keys == ["cells"] and s.info == ["dt_s", "max_eqps"] and s.paper == {}

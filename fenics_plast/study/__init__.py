@@ -15,7 +15,8 @@ The study knows no scene by name: each run's summary.json declares what to compa
 
 The reference of a run's results is its group's finest run, or a Richardson extrapolation over
 ``mesh.refine`` (:mod:`.references`); which keys are discretisation keys, and in which direction
-they refine, is :data:`.plan.ORDERED_KEYS`.
+they refine, is :data:`.plan.ORDERED_KEYS` (and :data:`.plan.UNORDERED_KEYS`: a mesh's grading, the
+stable-step estimate, which order nothing).
 
 A run that fails (exit status 1: summary.json has ``error``; 2: invalid combination; a crash, a
 signal or ``--timeout``) becomes a row with its reason; the study goes on. Exit status of the study:
@@ -31,8 +32,9 @@ from __future__ import annotations
 from .cli import add_study_arguments, main, study_command, study_from_args
 from .driver import run_study
 from .execute import Run, execute, prevalidate, run_command
-from .plan import (ORDERED_KEYS, RICHARDSON_KEYS, StudyError, Vary, as_number, combinations, order_sign,
-                   ordered_varies, parse_vary, run_label, run_name, split_values, toml_value)
+from .plan import (ORDERED_KEYS, RICHARDSON_KEYS, UNORDERED_KEYS, StudyError, Vary, as_number, combinations,
+                   non_discretisation_keys, order_sign, ordered_varies, parse_vary, run_label, run_name,
+                   split_values, toml_value)
 from .references import ORDER_RANGE, Reference, Richardson, references, relative_error, richardson
 from .report import TOLERANCES, write_csv, write_markdown, write_plot
 from .table import RUN_COLUMNS, Declared, Study, cheapest_within, declared_outputs
@@ -40,8 +42,8 @@ from .table import RUN_COLUMNS, Declared, Study, cheapest_within, declared_outpu
 __all__ = [
     "add_study_arguments", "main", "study_command", "study_from_args", "run_study",
     "Run", "execute", "prevalidate", "run_command",
-    "ORDERED_KEYS", "RICHARDSON_KEYS", "StudyError", "Vary", "as_number", "combinations", "order_sign",
-    "ordered_varies", "parse_vary", "run_label", "run_name", "split_values", "toml_value",
+    "ORDERED_KEYS", "RICHARDSON_KEYS", "UNORDERED_KEYS", "non_discretisation_keys", "StudyError", "Vary",
+    "as_number", "combinations", "order_sign", "ordered_varies", "parse_vary", "run_label", "run_name", "split_values", "toml_value",
     "ORDER_RANGE", "Reference", "Richardson", "references", "relative_error", "richardson",
     "TOLERANCES", "write_csv", "write_markdown", "write_plot",
     "RUN_COLUMNS", "Declared", "Study", "cheapest_within", "declared_outputs",

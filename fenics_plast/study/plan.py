@@ -6,6 +6,7 @@ keys order runs from coarse to fine.
 * :data:`ORDERED_KEYS`, :func:`order_sign`, :func:`ordered_varies`: discretisation keys
   (fnmatch patterns) and the direction in which they refine; :data:`RICHARDSON_KEYS`: the keys
   along which a Richardson extrapolation is made, with the mesh size h(value);
+* :data:`UNORDERED_KEYS`: discretisation keys that do not order runs (a mesh's grading);
 * :func:`set_key`, :func:`non_discretisation_keys`: the keys a study changes that are not
   discretisation keys (the published references no longer apply when there is one).
 
@@ -38,6 +39,11 @@ ORDERED_KEYS: dict[str, int] = {
     "contact.*.penalty": +1,
     "contact.*.tangential_penalty": +1,
 }
+
+#: Discretisation keys (fnmatch patterns) that do not order runs: a mesh's grading, the stable-step
+#: estimate. Categorical in a study (each value its own group), but like :data:`ORDERED_KEYS` they
+#: leave the problem itself, and so its published references, unchanged.
+UNORDERED_KEYS: tuple[str, ...] = ("mesh.parameters.*grading", "mesh.parameters.*size_ratio", "analysis.stable_step")
 
 #: Keys (fnmatch patterns) along which a Richardson extrapolation is made, with the mesh size h(value).
 RICHARDSON_KEYS: dict[str, Callable[[float], float]] = {"mesh.refine": lambda v: 1.0 / v}
@@ -147,9 +153,11 @@ def set_key(text: str) -> str:
 
 
 def non_discretisation_keys(varies: Sequence[Vary], sets: Iterable[str]) -> list[str]:
-    """The keys varied or ``--set`` that are not discretisation keys (:data:`ORDERED_KEYS`), in order."""
+    """The keys varied or ``--set`` that are not discretisation keys (:data:`ORDERED_KEYS`,
+    :data:`UNORDERED_KEYS`), in order."""
     keys = [v.key for v in varies] + [set_key(s) for s in sets]
-    return list(dict.fromkeys(k for k in keys if order_sign(k) is None))
+    return list(dict.fromkeys(k for k in keys if order_sign(k) is None
+                              and not any(fnmatch.fnmatchcase(k, p) for p in UNORDERED_KEYS)))
 
 
 def combinations(varies: Sequence[Vary]) -> list[dict[str, str]]:
