@@ -60,14 +60,14 @@ def flow_stress(law: int, p: np.ndarray, eps_p: float):
         s, h, _ = johnson_cook(p, eps_p, 0.0, 0.0, p[JC_T0])
         return s, h
     # TABLE
+    # (indices into p, not slices: a slice is an array view, reference counted at every call)
     m = int(p[0])
-    strain = p[1:1 + m]
-    stress = p[1 + m:1 + 2 * m]
     i = 0
-    while i < m - 2 and eps_p > strain[i + 1]:
+    while i < m - 2 and eps_p > p[2 + i]:
         i += 1
-    slope = (stress[i + 1] - stress[i]) / (strain[i + 1] - strain[i])
-    return stress[i] + slope * (eps_p - strain[i]), slope
+    e0, e1, s0, s1 = p[1 + i], p[2 + i], p[1 + m + i], p[2 + m + i]
+    slope = (s1 - s0) / (e1 - e0)
+    return s0 + slope * (eps_p - e0), slope
 
 
 @numba.njit(cache=True, fastmath=False)
