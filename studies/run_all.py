@@ -1,6 +1,6 @@
 """Run the shipped parameter studies and refresh their pages in the docs.
 
-    .venv/bin/python studies/run_all.py              # every study (about 20 min on 2 cores)
+    .venv/bin/python studies/run_all.py              # every study (about 15 min on 2 cores)
     .venv/bin/python studies/run_all.py taylor_dt    # only the named ones
     .venv/bin/python studies/run_all.py --list       # names and commands
     .venv/bin/python studies/run_all.py --docs-only  # re-render docs/STUDIES.md from docs/studies/
