@@ -890,7 +890,7 @@ class ExplicitDynamics:
         Returns a dict of run statistics.
         """
         if not 0.0 < dt_safety <= 1.0:
-            raise RunError(f"solver.dt_safety must lie in (0, 1], got {dt_safety}")
+            raise RunError(f"analysis.dt_safety must lie in (0, 1], got {dt_safety}")
         if not (0.0 <= dt_floor < 1.0 and mass_scaling_dt >= 0.0):
             raise RunError(f"dt_floor must lie in [0, 1) and mass_scaling_dt be >= 0, got {dt_floor}, "
                            f"{mass_scaling_dt}")
@@ -901,7 +901,7 @@ class ExplicitDynamics:
                 raise RunError(
                     f"time step end_time/steps = {dt_fixed:.4g} s ({int(steps)} steps) exceeds the stable "
                     f"limit {dt_stable0:.4g} s ({self._limit_text(dt_stable0)}); use at least "
-                    f"{math.ceil(end_time / dt_stable0)} steps or drop solver.steps")
+                    f"{math.ceil(end_time / dt_stable0)} steps or drop analysis.time_steps")
         if self.KE0 is None:
             self.initialize()
         row_times = np.linspace(0.0, end_time, max(int(rows), 2))
@@ -984,7 +984,7 @@ class ExplicitDynamics:
                             f"the fixed time step end_time/steps = {dt_fixed:.4g} s exceeds the stable limit "
                             f"{dt_stable:.4g} s of the deformed mesh at t = {self.t * 1e6:.4g} us (step "
                             f"{self.step_count}, {self._limit_text(dt_stable)}): raise "
-                            f"solver.steps or drop it (adaptive step)")
+                            f"analysis.time_steps or drop it (adaptive step)")
             while next_row < len(row_times) and self.t >= row_times[next_row] - eps_t:
                 if on_row is not None:
                     on_row(self, self.t)

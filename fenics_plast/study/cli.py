@@ -39,7 +39,7 @@ def add_study_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("--vary", action="append", required=True, metavar="KEY=V1,V2,...",
                    help="a scene key and its values (repeatable: the study runs every combination), "
-                        "e.g. --vary mesh.refine=1,2,4 --vary material.model=seed,isochoric")
+                        "e.g. --vary mesh.refine=1,2,4 --vary materials.steel.model=seed,isochoric")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="an override applied to every run (repeatable)")
     p.add_argument("--out", help="output directory (default results/study_<scene name>)")

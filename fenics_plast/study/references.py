@@ -1,7 +1,7 @@
 """What each run's results are compared with, and the relative errors.
 
 Keys that order runs from coarse to fine (:data:`fenics_plast.study.plan.ORDERED_KEYS`) make a
-convergence study; every other varied key (``material.model``, ``contact.law``...) is categorical
+convergence study; every other varied key (``materials.<name>.model``, ``contact.<name>.law``...) is categorical
 and splits the runs into groups, each with its own :class:`Reference`: the group's finest run
 (finest in every ordered key). When a Richardson key (``mesh.refine``) takes >= 3 values, the
 reference is instead the Richardson extrapolation from the three finest levels (mesh size
