@@ -19,7 +19,8 @@ from fenics_plast.quantities import Body, Quantities
 from fenics_plast.runner import (body_material, cell_regions, checkpointer, components_of, contact_modulus,
                                  draw_plots, initial_velocity_field, open_fields, read_mesh, symmetry_component,
                                  tool_of, values_of, write_final_shape)
-from fenics_plast.solvers.explicit import ExplicitDynamics, TimeStepCollapse
+from fenics_plast.solvers.collapse import TimeStepCollapse
+from fenics_plast.solvers.explicit import ExplicitDynamics
 
 US = 1e-6
 

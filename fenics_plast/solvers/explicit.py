@@ -36,9 +36,10 @@ prescribed motion, loads and contact see :mod:`fenics_plast.solvers.time_integra
   with contact pairs combined with the penalty springs' limit (explicit_contact.py); re-estimated
   every ``reestimate_every`` steps; the step used is dt_safety * dt_stable.
 * Time-step floor: when the stable step falls below ``dt_floor`` times its initial value, the run
-  stops with a :class:`TimeStepCollapse` naming the cell (position, size, aspect ratio, volume ratio,
-  corner angles, its element's own step) and the remedies; the runner writes the outputs, fields and
-  a checkpoint at the stop.
+  stops with a :class:`~fenics_plast.solvers.collapse.TimeStepCollapse` naming the cell (position,
+  size, aspect ratio, volume ratio, corner angles, its element's own step) and the remedies
+  (:mod:`fenics_plast.solvers.collapse`); the runner writes the outputs, fields and a checkpoint at
+  the stop.
 * Selective mass scaling (``mass_scaling_dt``, :meth:`~ExplicitDynamics.scale_mass`): at every
   re-estimate the cells whose stable step is below the target get density (factor s_c, never
   lowered) so that theirs reaches it; the mass goes to their nodes (assembled over the ranks) and
@@ -70,20 +71,9 @@ from fenics_plast.material import MaterialRegions
 from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 from fenics_plast.solvers import fused_force
 from fenics_plast.solvers import time_integration as ti
+from fenics_plast.solvers.collapse import collapse_error
 from fenics_plast.solvers.explicit_contact import ContactSet
-from fenics_plast.solvers.time_integration import _quad_min_size, quad_min_size
-
-
-class TimeStepCollapse(RunError):
-    """The stable step fell below ``dt_floor`` x its initial value (:meth:`ExplicitDynamics.run`).
-
-    ``results``: where and why (stopped_at_us, dt_collapse_ratio, collapse_cell...); ``stats``: the
-    run statistics so far (as :meth:`ExplicitDynamics.run` returns them); ``loop``: the run-loop
-    variables (a checkpoint at the stop). The solver's state is the one at the stop (finite)."""
-
-    def __init__(self, message, results=None, stats=None, loop=None):
-        super().__init__(message, results)
-        self.stats, self.loop = stats, loop
+from fenics_plast.solvers.time_integration import _quad_min_size
 
 
 # basix vertex order of a quadrilateral is tensor-product (0,0) (1,0) (0,1) (1,1); cyclic order:
@@ -450,88 +440,6 @@ class ExplicitDynamics:
         smax = self._reduce(float(self.cell_scale.max()) if self.cell_scale.size else 1.0, MPI.MAX)
         return dict(added_mass=float(tot[0]), body_mass=float(tot[1]), fraction=float(tot[0] / tot[1]),
                     cells=int(round(tot[2])), max_factor=smax, kinetic=float(tot[3]), energy=float(tot[4]))
-
-    def critical_cell(self):
-        """The cell that sets the element stable step (collective): dict with ``cell`` (its index in
-        the mesh file's cell order), ``position`` and ``reference`` (vertex mean now and in the
-        reference mesh [mm]), ``size`` (smallest edge or altitude [mm]), ``aspect`` (longest edge /
-        size), ``volume_ratio`` J (current / reference volume: area times centroid radius in
-        axisymmetry, area in plane strain; <= 0: inverted), ``factor`` (its mass-scaling density
-        factor), ``dt`` (its stable step [s], :meth:`cell_dt`), ``dt_size`` and ``dt_element`` (its size
-        estimate and its element's step 2 / omega_max [s]) and ``max_angle``, ``min_angle`` (its
-        largest and smallest interior corner angles [deg]; above 180: no longer convex)."""
-        dt_loc, i = self._local_min_dt()
-        best = self.comm.allreduce((dt_loc, self.comm.rank), op=MPI.MINLOC) if self.comm.size > 1 \
-            else (dt_loc, self.comm.rank)
-        info = None
-        if self.comm.rank == best[1] and i >= 0:
-            dt_size = float(self._hbuf[i])
-            dt_el = float(self._eig_dt(np.array([i]))[0])
-            idx = self._cell_dofs[i]                        # cyclic order
-            P, P0 = self._xbuf[idx].copy(), self._X[idx]
-            size = float(quad_min_size(P[None])[0])
-            edges = np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1)
-
-            def volume(Q):
-                x, y = Q[:, 0], Q[:, 1]
-                xn, yn = np.roll(x, -1), np.roll(y, -1)
-                cross = x * yn - xn * y
-                # area 1/2 sum cross; axisymmetric: first moment int r dA = 1/6 sum (x + xn) cross (Pappus)
-                return float(((x + xn) * cross).sum() / 6.0) if self.kin.axisymmetric else float(0.5 * cross.sum())
-
-            # interior corner angles [deg] (> 180: the cell is no longer convex), oriented as the reference
-            orient = 1.0 if volume(P0) > 0 else -1.0
-            ea, eb = np.roll(P, 1, axis=0) - P, np.roll(P, -1, axis=0) - P
-            ang = np.degrees(np.arctan2(orient * (eb[:, 0] * ea[:, 1] - eb[:, 1] * ea[:, 0]),
-                                        (ea * eb).sum(axis=1))) % 360.0
-            info = dict(cell=int(self.mesh.topology.original_cell_index[i]), position=P.mean(axis=0).tolist(),
-                        reference=P0.mean(axis=0).tolist(), size=size,
-                        aspect=float(edges.max() / max(size, 1e-300)),
-                        volume_ratio=volume(P) / volume(P0), factor=float(self.cell_scale[i]), dt=dt_loc,
-                        dt_size=dt_size, dt_element=dt_el, max_angle=float(ang.max()), min_angle=float(ang.min()))
-        return self.comm.bcast(info, root=best[1]) if self.comm.size > 1 else info
-
-    def _collapse(self, dt_stable, dt_stable0, dt_floor, mass_scaling_dt):
-        """The :class:`TimeStepCollapse` of a step below the floor (collective): its message names the
-        cell, where it is, its shape and the remedies."""
-        c = self.critical_cell()
-        ax = ("r", "z") if self.kin.axisymmetric else ("x", "y")
-        ratio = dt_stable / dt_stable0
-        pos = f"({ax[0]}, {ax[1]}) = ({c['position'][0]:.4g}, {c['position'][1]:.4g}) mm"
-        ref = f"({c['reference'][0]:.4g}, {c['reference'][1]:.4g}) mm"
-        suggest = float(f"{0.2 * dt_stable0 * 1e6:.2g}")
-        remedies = []
-        if self.stable_step == "size" and c["dt_element"] > 10.0 * c["dt_size"]:
-            # the size estimate collapses on a corner near 180 degrees; the element does not
-            remedies.append(f"the cell's own elastic element step 2/omega_max is {c['dt_element']:.3g} s, "
-                            f"{c['dt_element'] / c['dt_size']:.3g} x its size estimate h/c (the smallest altitude "
-                            f"follows the thinnest spot of the wedge-like cell, next to its corner of "
-                            f"{c['max_angle']:.1f} degrees; the element's frequency follows its whole shape): "
-                            f"--set analysis.stable_step=element takes the element's step")
-        if mass_scaling_dt > 0.0:
-            remedies.append(f"selective mass scaling is on (analysis.mass_scaling_dt = {mass_scaling_dt * 1e6:.4g} us) "
-                            f"and did not hold the step: a target above the floor ({dt_floor * dt_stable0 * 1e6:.3g} "
-                            f"us) adds ever more mass as the cell thins")
-        else:
-            remedies.append(f"selective mass scaling, e.g. --set analysis.mass_scaling_dt={suggest:g} (us, the target "
-                            f"stable step, 0.2 of the initial one: mass is added to the cells below it and reported "
-                            f"in history.csv and summary.json; it cannot keep up with a cell that thins to nothing)")
-        remedies.append("a finer mesh (mesh.refine) or one graded toward that cell")
-        msg = (f"time step collapsed at t = {self.t * 1e6:.4g} us (step {self.step_count}): the stable step "
-               f"{dt_stable:.4g} s is {ratio:.3g} of its initial value {dt_stable0:.4g} s, below "
-               f"analysis.dt_floor = {dt_floor:g}. It is set by cell {c['cell']} (the mesh file's cell order) "
-               f"at {pos} (reference {ref}): smallest size {c['size']:.3g} mm, aspect ratio {c['aspect']:.3g} "
-               f"(longest edge / smallest size), volume ratio J = {c['volume_ratio']:.3g}, corner angles "
-               f"{c['min_angle']:.1f} to {c['max_angle']:.1f} degrees"
-               + (f", mass-scaling density factor {c['factor']:.3g}" if c["factor"] > 1.0 else "")
-               + ". Remedies: " + "; ".join(remedies) + ". (A lower analysis.dt_floor lets the run go on, at "
-               "ever smaller steps.)")
-        results = dict(stopped_at_us=self.t * 1e6, dt_collapse_ratio=ratio, collapse_cell=c["cell"],
-                       collapse_cell_position_mm=c["position"], collapse_cell_reference_mm=c["reference"],
-                       collapse_cell_size_mm=c["size"], collapse_cell_aspect_ratio=c["aspect"],
-                       collapse_cell_volume_ratio=c["volume_ratio"], collapse_cell_max_angle_deg=c["max_angle"],
-                       collapse_cell_dt_element_s=c["dt_element"])
-        return TimeStepCollapse(msg, results=results)
 
     # -- drivers -------------------------------------------------------------------------------
     @property
@@ -935,7 +843,7 @@ class ExplicitDynamics:
                         self.scale_mass(mass_scaling_dt)
                     dt_stable = self.stable_dt()
                     if dt_stable < dt_floor * dt_stable0:
-                        e = self._collapse(dt_stable, dt_stable0, dt_floor, mass_scaling_dt)
+                        e = collapse_error(self, dt_stable, dt_stable0, dt_floor, mass_scaling_dt)
                         e.stats = stats(dt_stable)
                         e.loop = dict(next_row=next_row, next_prog=next_prog, dt_stable=dt_stable,
                                       dt_stable0=dt_stable0, dt_min=dt_min, dt_max=dt_max)

@@ -1,0 +1,112 @@
+"""Diagnosis of a collapsing explicit time step: the cell that sets it and why, and the error that stops the run.
+
+:meth:`fenics_plast.solvers.explicit.ExplicitDynamics.run` calls :func:`collapse_error` when the
+stable step falls below ``analysis.dt_floor`` x its initial value; the message names the cell (its
+index in the mesh file, where it is now and in the reference mesh), its size, aspect ratio, volume
+ratio J and corner angles, the collapse ratio, and the remedies with the scene keys to set. Lengths
+in mm, times in s (the message gives us where users write them).
+"""
+from __future__ import annotations
+
+import numpy as np
+from mpi4py import MPI
+
+from fenics_plast.errors import RunError
+from fenics_plast.solvers.time_integration import quad_min_size
+
+
+class TimeStepCollapse(RunError):
+    """The stable step fell below ``dt_floor`` x its initial value (``ExplicitDynamics.run``).
+
+    ``results``: where and why (stopped_at_us, dt_collapse_ratio, collapse_cell...); ``stats``: the
+    run statistics so far (as ``ExplicitDynamics.run`` returns them); ``loop``: the run-loop
+    variables (a checkpoint at the stop). The solver's state is the one at the stop (finite)."""
+
+    def __init__(self, message, results=None, stats=None, loop=None):
+        super().__init__(message, results)
+        self.stats, self.loop = stats, loop
+
+
+def critical_cell(solver) -> dict:
+    """The cell that sets the element stable step (collective): dict with ``cell`` (its index in
+    the mesh file's cell order), ``position`` and ``reference`` (vertex mean now and in the
+    reference mesh [mm]), ``size`` (smallest edge or altitude [mm]), ``aspect`` (longest edge /
+    size), ``volume_ratio`` J (current / reference volume: area times centroid radius in
+    axisymmetry, area in plane strain; <= 0: inverted), ``factor`` (its mass-scaling density
+    factor), ``dt`` (its stable step [s], ``ExplicitDynamics.cell_dt``), ``dt_size`` and
+    ``dt_element`` (its size estimate and its element's step 2 / omega_max [s]) and ``max_angle``,
+    ``min_angle`` (its largest and smallest interior corner angles [deg]; above 180: no longer
+    convex)."""
+    dt_loc, i = solver._local_min_dt()
+    best = solver.comm.allreduce((dt_loc, solver.comm.rank), op=MPI.MINLOC) if solver.comm.size > 1 \
+        else (dt_loc, solver.comm.rank)
+    info = None
+    if solver.comm.rank == best[1] and i >= 0:
+        dt_size = float(solver._hbuf[i])
+        dt_el = float(solver._eig_dt(np.array([i]))[0])
+        idx = solver._cell_dofs[i]                        # cyclic order
+        P, P0 = solver._xbuf[idx].copy(), solver._X[idx]
+        size = float(quad_min_size(P[None])[0])
+        edges = np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1)
+
+        def volume(Q):
+            x, y = Q[:, 0], Q[:, 1]
+            xn, yn = np.roll(x, -1), np.roll(y, -1)
+            cross = x * yn - xn * y
+            # area 1/2 sum cross; axisymmetric: first moment int r dA = 1/6 sum (x + xn) cross (Pappus)
+            return float(((x + xn) * cross).sum() / 6.0) if solver.kin.axisymmetric else float(0.5 * cross.sum())
+
+        # interior corner angles [deg] (> 180: the cell is no longer convex), oriented as the reference
+        orient = 1.0 if volume(P0) > 0 else -1.0
+        ea, eb = np.roll(P, 1, axis=0) - P, np.roll(P, -1, axis=0) - P
+        ang = np.degrees(np.arctan2(orient * (eb[:, 0] * ea[:, 1] - eb[:, 1] * ea[:, 0]),
+                                    (ea * eb).sum(axis=1))) % 360.0
+        info = dict(cell=int(solver.mesh.topology.original_cell_index[i]), position=P.mean(axis=0).tolist(),
+                    reference=P0.mean(axis=0).tolist(), size=size,
+                    aspect=float(edges.max() / max(size, 1e-300)),
+                    volume_ratio=volume(P) / volume(P0), factor=float(solver.cell_scale[i]), dt=dt_loc,
+                    dt_size=dt_size, dt_element=dt_el, max_angle=float(ang.max()), min_angle=float(ang.min()))
+    return solver.comm.bcast(info, root=best[1]) if solver.comm.size > 1 else info
+
+
+def collapse_error(solver, dt_stable, dt_stable0, dt_floor, mass_scaling_dt) -> TimeStepCollapse:
+    """The :class:`TimeStepCollapse` of a step below the floor (collective): its message names the
+    cell, where it is, its shape and the remedies."""
+    c = critical_cell(solver)
+    ax = ("r", "z") if solver.kin.axisymmetric else ("x", "y")
+    ratio = dt_stable / dt_stable0
+    pos = f"({ax[0]}, {ax[1]}) = ({c['position'][0]:.4g}, {c['position'][1]:.4g}) mm"
+    ref = f"({c['reference'][0]:.4g}, {c['reference'][1]:.4g}) mm"
+    suggest = float(f"{0.2 * dt_stable0 * 1e6:.2g}")
+    remedies = []
+    if solver.stable_step == "size" and c["dt_element"] > 10.0 * c["dt_size"]:
+        # the size estimate collapses on a corner near 180 degrees; the element does not
+        remedies.append(f"the cell's own elastic element step 2/omega_max is {c['dt_element']:.3g} s, "
+                        f"{c['dt_element'] / c['dt_size']:.3g} x its size estimate h/c (the smallest altitude "
+                        f"follows the thinnest spot of the wedge-like cell, next to its corner of "
+                        f"{c['max_angle']:.1f} degrees; the element's frequency follows its whole shape): "
+                        f"--set analysis.stable_step=element takes the element's step")
+    if mass_scaling_dt > 0.0:
+        remedies.append(f"selective mass scaling is on (analysis.mass_scaling_dt = {mass_scaling_dt * 1e6:.4g} us) "
+                        f"and did not hold the step: a target above the floor ({dt_floor * dt_stable0 * 1e6:.3g} "
+                        f"us) adds ever more mass as the cell thins")
+    else:
+        remedies.append(f"selective mass scaling, e.g. --set analysis.mass_scaling_dt={suggest:g} (us, the target "
+                        f"stable step, 0.2 of the initial one: mass is added to the cells below it and reported "
+                        f"in history.csv and summary.json; it cannot keep up with a cell that thins to nothing)")
+    remedies.append("a finer mesh (mesh.refine) or one graded toward that cell")
+    msg = (f"time step collapsed at t = {solver.t * 1e6:.4g} us (step {solver.step_count}): the stable step "
+           f"{dt_stable:.4g} s is {ratio:.3g} of its initial value {dt_stable0:.4g} s, below "
+           f"analysis.dt_floor = {dt_floor:g}. It is set by cell {c['cell']} (the mesh file's cell order) "
+           f"at {pos} (reference {ref}): smallest size {c['size']:.3g} mm, aspect ratio {c['aspect']:.3g} "
+           f"(longest edge / smallest size), volume ratio J = {c['volume_ratio']:.3g}, corner angles "
+           f"{c['min_angle']:.1f} to {c['max_angle']:.1f} degrees"
+           + (f", mass-scaling density factor {c['factor']:.3g}" if c["factor"] > 1.0 else "")
+           + ". Remedies: " + "; ".join(remedies) + ". (A lower analysis.dt_floor lets the run go on, at "
+           "ever smaller steps.)")
+    results = dict(stopped_at_us=solver.t * 1e6, dt_collapse_ratio=ratio, collapse_cell=c["cell"],
+                   collapse_cell_position_mm=c["position"], collapse_cell_reference_mm=c["reference"],
+                   collapse_cell_size_mm=c["size"], collapse_cell_aspect_ratio=c["aspect"],
+                   collapse_cell_volume_ratio=c["volume_ratio"], collapse_cell_max_angle_deg=c["max_angle"],
+                   collapse_cell_dt_element_s=c["dt_element"])
+    return TimeStepCollapse(msg, results=results)
