@@ -35,9 +35,11 @@ def _field(X, scale):
     return u.reshape(-1)
 
 
-def _two_increments(s):
-    """Increment 1: 0 -> U1 (yields), increment 2: U1 -> U2, as the explicit step applies them."""
-    U1, U2 = _field(s._X, 1.0), _field(s._X, 1.04)
+def two_increments(s, field=None):
+    """Increment 1: 0 -> U1 (yields), increment 2: U1 -> U2, as the explicit step applies them;
+    ``field(X, scale)``: the displacement field (default :func:`_field`)."""
+    field = _field if field is None else field
+    U1, U2 = field(s._X, 1.0), field(s._X, 1.04)
     s.u.x.array[:] = U1
     s._internal_force()
     s.u_n.x.array[:] = U1
@@ -56,8 +58,8 @@ def _two_increments(s):
 ])
 def test_fused_force_equals_ufl_residual(geometry, element, model):
     mesh, _, _, _ = bar_mesh(MPI.COMM_SELF, 3.0, 8.0, 3, 5)
-    fused = _two_increments(_solver(mesh, geometry, element, "fused", model))
-    ufl = _two_increments(_solver(mesh, geometry, element, "ufl", model))
+    fused = two_increments(_solver(mesh, geometry, element, "fused", model))
+    ufl = two_increments(_solver(mesh, geometry, element, "ufl", model))
     assert fused.qmap.eqps.max() > 0.02, "the test state must be plastic"
     fmax = np.abs(ufl.f).max()
     assert np.abs(fused.f - ufl.f).max() <= 1e-12 * fmax

@@ -9,7 +9,6 @@ and on 2 MPI ranks.
 """
 from __future__ import annotations
 
-import json
 import math
 import os
 import subprocess
@@ -17,6 +16,8 @@ import sys
 from pathlib import Path
 
 import pytest
+
+from scene_runs import run_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 DEMOS = ROOT / "demos"
@@ -40,19 +41,6 @@ PUNCH_FRICTION = {
            "min_thickness_strain": -0.9920610563243819, "thickness_strain_at_start": -0.20175179730898213,
            "min_thickness_strain_at_t_0.5": -0.13962986088257645}, {"increments": 45, "newton_iterations": 273}),
 }
-
-
-def run_scene(scene, out, *sets, np_ranks=1):
-    cmd = FP + ["run", str(scene), "--out", str(out)]
-    for s in sets:
-        cmd += ["--set", s]
-    if np_ranks > 1:
-        cmd = ["mpirun", "-n", str(np_ranks), "--oversubscribe"] + cmd
-    env = dict(os.environ, FENICS_PLAST_PROGRESS="off", OMPI_ALLOW_RUN_AS_ROOT="1",
-               OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    p = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT, timeout=900)
-    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
-    return json.loads((Path(out) / "summary.json").read_text())
 
 
 def assert_close(summary, ref, rtol=1e-8):

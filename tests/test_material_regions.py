@@ -28,6 +28,7 @@ from fenics_plast.material import Hardening, Material, MaterialRegions
 from fenics_plast.meshing import mesh_from_file
 from fenics_plast.solvers.explicit import ExplicitDynamics
 from fenics_plast.solvers.static import StaticSolver
+from test_fused_force import two_increments
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "tests" / "scenes"
@@ -153,19 +154,6 @@ def _field(X, scale):
     return u.reshape(-1)
 
 
-def _two_increments(s):
-    """Increment 1: 0 -> U1 (yields), increment 2: U1 -> U2, as the explicit step applies them."""
-    U1, U2 = _field(s._X, 1.0), _field(s._X, 1.04)
-    s.u.x.array[:] = U1
-    s._internal_force()
-    s.u_n.x.array[:] = U1
-    if s.theta is not None:
-        s.theta_n.x.array[:] = s.theta.x.array
-    s.u.x.array[:] = U2
-    s._internal_force()
-    return s
-
-
 def test_same_material_in_two_regions_equals_one_material_explicit():
     """Lumped mass (DG0 density), stable step and a 1.5 us impact: the numbers of one material."""
     runs = []
@@ -189,8 +177,8 @@ def test_same_material_in_two_regions_equals_one_material_explicit():
 
 
 def test_fused_equals_ufl_with_two_materials():
-    fused = _two_increments(_explicit("fused"))
-    ufl = _two_increments(_explicit("ufl"))
+    fused = two_increments(_explicit("fused"), _field)
+    ufl = two_increments(_explicit("ufl"), _field)
     mats = fused.material
     for k in range(2):
         pts = np.isin(np.arange(fused.qmap.n) // fused.qmap.nq, mats.cells[k])

@@ -37,19 +37,16 @@ of the free faces through the die. ~80 s.
 """
 from __future__ import annotations
 
-import json
 import math
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+import scene_runs
+
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "demos" / "ring_compression.toml"
-FP = [sys.executable, "-m", "fenics_plast.cli"]
 
 # the scene's ring and material (Swift aluminium 2036-T4)
 RI, RO, HALF = 15.0, 30.0, 10.0
@@ -64,15 +61,7 @@ def friction_sets(mu):
 
 
 def run_ring(out, mu, *sets):
-    cmd = FP + ["run", str(SCENE), "--out", str(out)]
-    for s in (*friction_sets(mu), *sets):
-        cmd += ["--set", s]
-    env = dict(os.environ, FENICS_PLAST_PROGRESS="off")
-    p = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT, timeout=900)
-    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
-    summary = json.loads((Path(out) / "summary.json").read_text())
-    history = np.genfromtxt(Path(out) / "history.csv", delimiter=",", names=True)
-    return summary, history
+    return scene_runs.run_scene(SCENE, out, *friction_sets(mu), *sets), scene_runs.history(out)
 
 
 def axial_kirchhoff(h_ratio):

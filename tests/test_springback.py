@@ -34,20 +34,17 @@ measured 0.0045 against sigma_y/E = 0.0075).
 """
 from __future__ import annotations
 
-import json
 import math
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+import scene_runs
+
 ROOT = Path(__file__).resolve().parent.parent
 BAR = ROOT / "tests" / "scenes" / "bar_unloading.toml"
 SPRINGBACK = ROOT / "demos" / "springback.toml"
-FP = [sys.executable, "-m", "fenics_plast.cli"]
 
 # the material and geometry of bar_unloading.toml (Swift aluminium of the punch scene)
 E, NU, K, EPS0, N_SWIFT = 69.0e3, 0.3, 589.0, 1.0e-4, 0.216
@@ -58,15 +55,7 @@ RTOL = 1e-9
 
 
 def run_scene(scene, out, *sets):
-    cmd = FP + ["run", str(scene), "--out", str(out)]
-    for s in sets:
-        cmd += ["--set", s]
-    env = dict(os.environ, FENICS_PLAST_PROGRESS="off")
-    p = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT, timeout=900)
-    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
-    summary = json.loads((Path(out) / "summary.json").read_text())
-    history = np.genfromtxt(Path(out) / "history.csv", delimiter=",", names=True)
-    return summary, history
+    return scene_runs.run_scene(scene, out, *sets), scene_runs.history(out)
 
 
 def sigma_y(eps_p):

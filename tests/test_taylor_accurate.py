@@ -13,14 +13,12 @@ refine = 1 (108 cells) runs the whole 80 us and lands within 1 % of the limit.
 """
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+import scene_runs
 from mpi4py import MPI
 
 from fenics_plast.meshing import mesh_from_file
@@ -28,7 +26,6 @@ from fenics_plast.problem import load_problem
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "demos" / "taylor_bar_accurate.toml"
-FP = [sys.executable, "-m", "fenics_plast.cli"]
 #: Richardson limit of the uniform-mesh study (refine 1, 2, 4 of demos/taylor_bar.toml), docs/STUDIES.md
 R_INF, L_INF = 7.22849, 21.4222
 SERIAL = MPI.COMM_WORLD.size == 1
@@ -89,13 +86,7 @@ def test_ratios_one_give_round_bar_mesh():
 
 def run_scene(out, *sets):
     """summary.json of a CLI run of the scene (no fields, no figures)."""
-    cmd = FP + ["run", str(SCENE), "--out", str(out)]
-    for s in ("output.xdmf=false", "output.plots=false", *sets):
-        cmd += ["--set", s]
-    env = dict(os.environ, FENICS_PLAST_PROGRESS="off")
-    p = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT, timeout=900)
-    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
-    return json.loads((Path(out) / "summary.json").read_text())
+    return scene_runs.run_scene(SCENE, out, "output.xdmf=false", "output.plots=false", *sets)
 
 
 def errors(s):

@@ -15,20 +15,17 @@ Fast tests run 3 x 18 cells (1-2 s a run); the scene's own mesh is @slow.
 """
 from __future__ import annotations
 
-import json
 import math
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+import scene_runs
+
 ROOT = Path(__file__).resolve().parent.parent
 WALL = ROOT / "demos" / "taylor_bar_wall.toml"
 SLIDING = ROOT / "demos" / "taylor_bar.toml"
-FP = [sys.executable, "-m", "fenics_plast.cli"]
 NZ = 18
 COARSE = ("mesh.parameters.cells_radial=3", f"mesh.parameters.cells_axial={NZ}")
 #: the physics of a run (serial against 2 ranks); steps, times and checkpoints are not physics
@@ -39,17 +36,8 @@ PHYSICS = ("radius_mm", "length_mm", "max_eqps", "face_lift_mm", "max_face_lift_
 
 def run_scene(scene, out, *sets, np_ranks=1):
     """summary.json and history.csv of one run (no fields, no figures)."""
-    cmd = FP + ["run", str(scene), "--out", str(out)]
-    for s in ("output.xdmf=false", "output.plots=false", *sets):
-        cmd += ["--set", s]
-    if np_ranks > 1:
-        cmd = ["mpirun", "-n", str(np_ranks), "--oversubscribe"] + cmd
-    env = dict(os.environ, FENICS_PLAST_PROGRESS="off", OMPI_ALLOW_RUN_AS_ROOT="1",
-               OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    p = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT, timeout=900)
-    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
-    summary = json.loads((Path(out) / "summary.json").read_text())
-    summary["history"] = np.genfromtxt(Path(out) / "history.csv", delimiter=",", names=True)
+    summary = scene_runs.run_scene(scene, out, "output.xdmf=false", "output.plots=false", *sets, np_ranks=np_ranks)
+    summary["history"] = scene_runs.history(out)
     return summary
 
 

@@ -8,27 +8,19 @@ force by about n sigma / (E (eps0 + eps)) ~ 0.2 %).
 """
 from __future__ import annotations
 
-import json
 import math
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+
+from scene_runs import run_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "docs" / "tutorial" / "billet.toml"
 
 
 def run(out, *sets):
-    cmd = [sys.executable, "-m", "fenics_plast.cli", "run", str(SCENE), "--out", str(out)]
-    for s in sets:
-        cmd += ["--set", s]
-    p = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=600,
-                       env=dict(os.environ, FENICS_PLAST_PROGRESS="off"))
-    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
-    return json.loads((Path(out) / "summary.json").read_text())
+    return run_scene(SCENE, out, *sets)
 
 
 def test_frictionless_upsetting_equals_the_homogeneous_closed_form(tmp_path):

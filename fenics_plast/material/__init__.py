@@ -19,13 +19,14 @@ import numpy as np
 from . import kernels
 from .hardening import Hardening
 from .regions import MaterialRegions
+from .update_arrays import AllocatingUpdates
 
 __all__ = ["Material", "MaterialRegions", "Hardening", "MODELS"]
 
 MODELS = {"seed": kernels.SEED, "isochoric": kernels.ISOCHORIC}
 
 
-class Material:
+class Material(AllocatingUpdates):
     """Finite-strain J2 elastoplastic material.
 
     Parameters
@@ -103,40 +104,6 @@ class Material:
             temp_n = temp = self._no_temp
         return kernels.update_points(model, Fu, binv_n, eqps_n, temp_n, lmbda, mu, law, hp, tol, float(dt), tau,
                                      binv, eqps, temp, a if want else self._no_tangent, want)
-
-    def update(self, Fu, binv_n, eqps_n, tangent: bool = True):
-        """Return-mapping update from the converged state (binv_n, eqps_n) under the increment Fu.
-
-        Fu : (n,3,3) incremental deformation gradient F_{n+1} F_n^-1.
-        binv_n : (n,3,3) elastic Finger tensor b_e^-1 at t_n (identity when virgin).
-        eqps_n : (n,) equivalent plastic strain at t_n.
-        Returns tau (n,3,3) Kirchhoff stress [MPa], binv (n,3,3), eqps (n,), and the spatial
-        consistent tangent a (n,3,3,3,3) [MPa], delta tau_ij = a_ijkl (delta F F^-1)_kl,
-        or None when tangent is False. Johnson-Cook: at the initial temperature with no rate term
-        and no heating (the static convention; see :meth:`update_thermal`).
-        """
-        Fu = np.ascontiguousarray(Fu, dtype=float).reshape(-1, 3, 3)
-        binv_n = np.ascontiguousarray(binv_n, dtype=float).reshape(-1, 3, 3)
-        eqps_n = np.ascontiguousarray(eqps_n, dtype=float).reshape(-1)
-        n = Fu.shape[0]
-        tau, binv, eqps = np.empty((n, 3, 3)), np.empty((n, 3, 3)), np.empty(n)
-        a = np.empty((n, 3, 3, 3, 3)) if tangent else None
-        self.update_into(Fu, binv_n, eqps_n, tau, binv, eqps, a)
-        return tau, binv, eqps, a
-
-    def update_thermal(self, Fu, binv_n, eqps_n, temp_n, dt: float, tangent: bool = True):
-        """:meth:`update` with the temperature state and the increment's time: temp_n (n,) [K] at t_n,
-        dt [s] (<= 0: static convention). Returns tau, binv, eqps, temp (n,) [K], a (None if not
-        tangent). For a material without temperature state, temp is temp_n (copied)."""
-        Fu = np.ascontiguousarray(Fu, dtype=float).reshape(-1, 3, 3)
-        binv_n = np.ascontiguousarray(binv_n, dtype=float).reshape(-1, 3, 3)
-        eqps_n = np.ascontiguousarray(eqps_n, dtype=float).reshape(-1)
-        temp_n = np.ascontiguousarray(temp_n, dtype=float).reshape(-1)
-        n = Fu.shape[0]
-        tau, binv, eqps, temp = np.empty((n, 3, 3)), np.empty((n, 3, 3)), np.empty(n), temp_n.copy()
-        a = np.empty((n, 3, 3, 3, 3)) if tangent else None
-        self.update_into(Fu, binv_n, eqps_n, tau, binv, eqps, a, temp_n=temp_n, temp=temp, dt=dt)
-        return tau, binv, eqps, temp, a
 
     def energy(self, binv) -> np.ndarray:
         """Stored elastic energy per reference volume [MPa = mJ/mm^3], shape (n,)."""

@@ -16,6 +16,7 @@ import numba
 import numpy as np
 
 from . import kernels
+from .update_arrays import AllocatingUpdates
 
 __all__ = ["MaterialRegions", "update_regions"]
 
@@ -68,7 +69,7 @@ def update_regions(order, offsets, models, lams, mus, laws, hps, tols, Fu, binv_
     return nplastic
 
 
-class MaterialRegions:
+class MaterialRegions(AllocatingUpdates):
     """Materials per set of cells, with the interface the solvers use from a :class:`Material`.
 
     Parameters
@@ -195,29 +196,6 @@ class MaterialRegions:
             a = a_b = self._no_tangent
         return update_regions(order, offsets, *self._tables, Fu, binv_n, eqps_n, temp_n, float(dt), tau, binv, eqps,
                               temp, a, want, Fu_b, B_b, e_b, T_b, tau_b, a_b)
-
-    def update(self, Fu, binv_n, eqps_n, tangent: bool = True):
-        """As :meth:`Material.update` (returns new arrays tau, binv, eqps, a)."""
-        Fu = np.ascontiguousarray(Fu, dtype=float).reshape(-1, 3, 3)
-        binv_n = np.ascontiguousarray(binv_n, dtype=float).reshape(-1, 3, 3)
-        eqps_n = np.ascontiguousarray(eqps_n, dtype=float).reshape(-1)
-        n = Fu.shape[0]
-        tau, binv, eqps = np.empty((n, 3, 3)), np.empty((n, 3, 3)), np.empty(n)
-        a = np.empty((n, 3, 3, 3, 3)) if tangent else None
-        self.update_into(Fu, binv_n, eqps_n, tau, binv, eqps, a)
-        return tau, binv, eqps, a
-
-    def update_thermal(self, Fu, binv_n, eqps_n, temp_n, dt: float, tangent: bool = True):
-        """As :meth:`Material.update_thermal` (returns new arrays tau, binv, eqps, temp, a)."""
-        Fu = np.ascontiguousarray(Fu, dtype=float).reshape(-1, 3, 3)
-        binv_n = np.ascontiguousarray(binv_n, dtype=float).reshape(-1, 3, 3)
-        eqps_n = np.ascontiguousarray(eqps_n, dtype=float).reshape(-1)
-        temp_n = np.ascontiguousarray(temp_n, dtype=float).reshape(-1)
-        n = Fu.shape[0]
-        tau, binv, eqps, temp = np.empty((n, 3, 3)), np.empty((n, 3, 3)), np.empty(n), np.empty(n)
-        a = np.empty((n, 3, 3, 3, 3)) if tangent else None
-        self.update_into(Fu, binv_n, eqps_n, tau, binv, eqps, a, temp_n=temp_n, temp=temp, dt=dt)
-        return tau, binv, eqps, temp, a
 
     def energy(self, binv) -> np.ndarray:
         """Stored elastic energy per reference volume [MPa = mJ/mm^3] of each point with its cell's
