@@ -1,8 +1,9 @@
-"""UFL kinematics for 2-D models carrying 3x3 tensors.
+"""UFL kinematics carrying 3x3 tensors, in 2-D models and in 3-D.
 
 geometry "axisymmetric": x[0] = r, x[1] = z, tensor axes (r, z, theta), hoop gradient w_r / r,
 weight 2 pi r (integrals are totals over the full revolution).
 geometry "plane_strain": axes (x, y, z), zero out-of-plane gradient, weight 1 (per unit depth).
+geometry "3d": axes (x, y, z), the full gradient of a 3-vector field, weight 1.
 
 This module holds the definition of the internal force, ``internal_virtual_work``:
 R_u = int (J/theta) tau : (Grad v F^-1) w dV (theta = J for plain Q1). The static solver assembles
@@ -18,7 +19,7 @@ import math
 
 import ufl
 
-GEOMETRIES = ("axisymmetric", "plane_strain")
+GEOMETRIES = ("axisymmetric", "plane_strain", "3d")
 QUADRATURE_DEGREE = 2
 
 
@@ -31,6 +32,8 @@ class Kinematics:
         self.degree = degree
         self.x = ufl.SpatialCoordinate(mesh)
         self.axisymmetric = geometry == "axisymmetric"
+        self.three_d = geometry == "3d"
+        self.gdim = 3 if self.three_d else 2     # components of the displacement field
         self.weight = 2.0 * math.pi * self.x[0] if self.axisymmetric else 1.0
         self.metadata = {"quadrature_degree": degree, "quadrature_scheme": "default"}
         self.dx = ufl.Measure("dx", domain=mesh, metadata=self.metadata)
@@ -38,8 +41,10 @@ class Kinematics:
 
     # -- gradients -------------------------------------------------------------------------
     def grad(self, w):
-        """3x3 reference gradient of a 2-vector field."""
+        """3x3 reference gradient of a displacement-like field (2-vector in 2-D, 3-vector in 3-D)."""
         g = ufl.grad(w)
+        if self.three_d:
+            return g
         hoop = w[0] / self.x[0] if self.axisymmetric else 0.0
         return ufl.as_matrix([[g[0, 0], g[0, 1], 0.0],
                               [g[1, 0], g[1, 1], 0.0],

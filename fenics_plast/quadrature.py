@@ -29,7 +29,8 @@ class MaterialUpdateError(RuntimeError):
     """Non-finite values from the material update."""
 
 
-_BASIX_CELL = {"quadrilateral": basix.CellType.quadrilateral, "triangle": basix.CellType.triangle}
+_BASIX_CELL = {"quadrilateral": basix.CellType.quadrilateral, "triangle": basix.CellType.triangle,
+               "hexahedron": basix.CellType.hexahedron}
 
 
 class QuadratureMap:

@@ -146,11 +146,12 @@ SCHEMA: dict[str, Table] = {
                                   "compiled pass, the default) or 'ufl' (the UFL residual assembled by dolfinx, "
                                   "the definition). Same numbers to round-off.", when={"type": EXPLICIT},
                                   choices=("fused", "ufl")),
-            "stable_step": Key("str", "size", "The stable step of a cell: 'size' = h / c (h its smallest edge or "
-                               "altitude, c the dilatational wave speed); 'element' = the larger of h / c and "
+            "stable_step": Key("str", "element", "The stable step of a cell: 'element' = the larger of h / c and "
                                "2 / omega_max of the cell's elastic element with its lumped mass (exact for the "
-                               "element; h / c collapses on a cell with a corner near 180 degrees, a sound "
-                               "triangle). The step used is dt_safety x the smallest over the cells.",
+                               "element, an upper bound for the mesh; h / c collapses on a cell with a corner "
+                               "near 180 degrees, a sound triangle); 'size' = h / c alone (h its smallest edge "
+                               "or altitude, c the dilatational wave speed): 25-35 % more steps on the crushed "
+                               "cells of an impact. The step used is dt_safety x the smallest over the cells.",
                                when={"type": EXPLICIT}, choices=("size", "element")),
             "dt_floor": Key("float", 1e-3, "Time-step floor, as a fraction of the initial stable step: when the "
                             "stable step of the deformed mesh falls below it (a crushed cell), the run stops "
