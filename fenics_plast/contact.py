@@ -49,6 +49,19 @@ A cut-back needs nothing: the history only changes in ``commit()``.
 Normal and friction terms share the rule, so at every contact node, and therefore in total, the
 tangential force of a pair equals its mu times its normal force when slipping.  A pair with
 mu = 0 assembles no friction term at all.
+
+3-D (``Kinematics(mesh, "3d")``, 3-D tools of :mod:`fenics_plast.tools`): the same equations with
+the tangential traction a vector in the tangent plane of the normal N_f (N current for Coulomb, the
+committed N_n for Quasi-Coulomb), P_T = I - N_f N_f^T,
+
+    t_tr = P_T (t_n - eps_T ds),     t = t_tr  if |t_tr| <= mu p,   t = mu p t_tr / |t_tr|  otherwise
+
+(the return map on its norm); 2-D is the special case P_T = T T^T, T = (N_y, -N_x), where
+t_tr T = P_T (t_n - eps_T ds) and the clamp of the scalar is the same map.  The nodal rule puts its
+points at the facet's vertices (4 on a hexahedron's quadrilateral facets, weights 1/4 of the
+reference square; 3 on a tetrahedron's), the weight w is 1 and each node's tributary area is its
+facet-area share int N_i dA0.  The history per node is (t_n (3), N_n (3), p_n), 7 components.
+The 2-D forms are built by the unchanged 2-D code (same numbers to the bit).
 """
 from __future__ import annotations
 
@@ -60,13 +73,34 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from fenics_plast.expressions import piecewise_linear
-from fenics_plast.tools import PENALTY_FACTOR, Circle, Plane, Tool, default_penalty
+from fenics_plast.tools import PENALTY_FACTOR, Circle, Plane, Tool, _TINY, default_penalty
 
 LAWS = ("coulomb", "quasi-coulomb")
 
 #: nodal (trapezoidal) rule on facets: points at the facet's end points
 NODAL_RULE = {"quadrature_degree": 1, "quadrature_rule": "custom",
               "quadrature_points": ((0.0,), (1.0,)), "quadrature_weights": (0.5, 0.5)}
+#: nodal rules on the facets of 3-D cells: the facet's vertices (reference square [0, 1]^2 of a
+#: hexahedron's facets, reference triangle of a tetrahedron's)
+NODAL_RULE_QUADRILATERAL = {"quadrature_degree": 1, "quadrature_rule": "custom",
+                            "quadrature_points": ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)),
+                            "quadrature_weights": (0.25, 0.25, 0.25, 0.25)}
+NODAL_RULE_TRIANGLE = {"quadrature_degree": 1, "quadrature_rule": "custom",
+                       "quadrature_points": ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0)),
+                       "quadrature_weights": (1.0 / 6.0, 1.0 / 6.0, 1.0 / 6.0)}
+
+
+def nodal_rule(mesh):
+    """The ``ds`` metadata of the nodal rule on the facets of ``mesh``'s cells (points at the facet's
+    vertices, weights summing to the reference facet's size)."""
+    name = mesh.topology.cell_type.name
+    if name in ("quadrilateral", "triangle", "interval"):
+        return NODAL_RULE
+    if name == "hexahedron":
+        return NODAL_RULE_QUADRILATERAL
+    if name == "tetrahedron":
+        return NODAL_RULE_TRIANGLE
+    raise ValueError(f"no nodal contact rule for {name} cells")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -105,18 +139,23 @@ class DieShoulder(CircularTool):
 class FlatWall(Plane):
     """Plane through ``point`` (+ translation) with unit ``normal`` pointing into the body.
 
-    ``path``: knots [(lam, dx, dy), ...] of a piecewise-linear translation [mm] (default: fixed).
+    ``path``: knots [(lam, dx, dy), ...] of a piecewise-linear translation [mm] (default: fixed);
+    a 3-D wall (3-vector point and normal) takes knots (lam, dx, dy, dz).
     """
 
     name = "wall"
 
     def __init__(self, point=(0.0, 0.0), normal=(0.0, 1.0), path=None, name=None):
-        self.knots = [(0.0, 0.0, 0.0)] if not path else [tuple(map(float, k)) for k in path]
+        width = 1 + len(normal)
+        self.knots = [(0.0,) * width] if not path else [tuple(map(float, k)) for k in path]
+        if any(len(k) != width for k in self.knots):
+            raise ValueError(f"wall path knots must be (lam, {', '.join('d' + c for c in 'xyz'[:width - 1])})")
         super().__init__(point, normal, path=self._path, name=name)
 
     def _path(self, lam, use_ufl):
         t = [k[0] for k in self.knots]
-        return tuple(piecewise_linear(lam, t, [k[i] for k in self.knots], use_ufl) for i in (1, 2))
+        return tuple(piecewise_linear(lam, t, [k[i] for k in self.knots], use_ufl)
+                     for i in range(1, len(self.knots[0])))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -152,10 +191,16 @@ class ContactPair:
         # as Constants in the forms: a new penalty value needs no new JIT compilation
         self.penalty_c = fem.Constant(mesh, PETSc.ScalarType(self.penalty))
         self.tangential_penalty_c = fem.Constant(mesh, PETSc.ScalarType(self.tangential_penalty))
-        self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags, metadata=NODAL_RULE)(tag)
-        # history: [t_n (2), N_n (2), p_n] per node
+        gdim = s.kin.gdim
+        self.gdim = gdim
+        if getattr(tool, "dim", 2) != gdim:
+            raise ValueError(f"contact pair {tool.name!r}: a {getattr(tool, 'dim', 2)}-D tool on a "
+                             f"{gdim}-D body")
+        self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags, metadata=nodal_rule(mesh))(tag)
+        # history: [t_n (gdim), N_n (gdim), p_n] per node
         cell = mesh.ufl_cell()
-        self.H = fem.FunctionSpace(mesh, ufl.VectorElement("Lagrange", cell, 1, dim=5))
+        self.hist_size = 2 * gdim + 1
+        self.H = fem.FunctionSpace(mesh, ufl.VectorElement("Lagrange", cell, 1, dim=self.hist_size))
         self.hist = fem.Function(self.H, name=f"contact_history_{tool.name}")
         self.omega = self._nodal_weight(facet_tags, tag, c.weight)
         lam, lam_c = s.load, c.lam_c
@@ -168,7 +213,9 @@ class ContactPair:
         traction = self.p * N
         self.t_vec = None
         self.t_scalar = None
-        if self.friction > 0.0:
+        if self.friction > 0.0 and gdim == 3:
+            traction = traction + self._friction_3d(tool, N, g, lam, lam_c)
+        elif self.friction > 0.0:
             h = self.hist
             t_n = ufl.as_vector([h[0], h[1]])
             d1, d0 = tool.translation(lam), tool.translation(lam_c)
@@ -193,18 +240,21 @@ class ContactPair:
         # commit: midpoint values -> DG0 history
         q = ufl.TestFunction(self.H)
         zero = ufl.as_ufl(0.0)
-        tv = self.t_vec if self.t_vec is not None else ufl.as_vector([zero, zero])
-        new = ufl.as_vector([tv[0], tv[1], N[0], N[1], self.p])
+        tv = self.t_vec if self.t_vec is not None else ufl.as_vector([zero] * gdim)
+        new = ufl.as_vector([tv[i] for i in range(gdim)] + [N[i] for i in range(gdim)] + [self.p])
         self._num = fem.form(ufl.inner(new, q) * self.ds)
         self._bnum = fpetsc.create_vector(self._num)
-        den = fpetsc.assemble_vector(fem.form(ufl.inner(ufl.as_vector([1.0] * 5), q) * self.ds))
+        den = fpetsc.assemble_vector(fem.form(ufl.inner(ufl.as_vector([1.0] * self.hist_size), q) * self.ds))
         den.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         arr = den.array
         arr[arr == 0.0] = 1.0
         self._den = den
         # nodal status [in contact, slipping] (diagnostics)
         incontact = ufl.conditional(ufl.lt(g, 0.0), 1.0, 0.0)
-        if self.t_scalar is not None:
+        if self.t_vec is not None and gdim == 3:
+            slipping = incontact * ufl.conditional(ufl.gt(ufl.dot(self.t_trial, self.t_trial),
+                                                          self.bound * self.bound), 1.0, 0.0)
+        elif self.t_scalar is not None:
             slipping = incontact * ufl.conditional(ufl.gt(abs(self.t_trial), self.bound), 1.0, 0.0)
         else:
             slipping = incontact
@@ -214,10 +264,36 @@ class ContactPair:
         self._status_den = fpetsc.assemble_vector(fem.form(ufl.inner(ufl.as_vector([1.0, 1.0]), qs) * self.ds))
         self._status_den.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         # post-processing forms
-        self._force = [fem.form(traction[i] * w * self.ds) for i in range(2)]
+        self._force = [fem.form(traction[i] * w * self.ds) for i in range(gdim)]
         self._normal_force = fem.form(self.p * w * self.ds)
-        if self.t_scalar is not None:
+        if self.t_vec is not None and gdim == 3:
+            self._tangential_force = [fem.form(self.t_vec[i] * w * self.ds) for i in range(3)]
+        elif self.t_scalar is not None:
             self._tangential_force = fem.form(self.t_scalar * w * self.ds)
+
+    def _friction_3d(self, tool, N, g, lam, lam_c):
+        """The tangential traction vector t (UFL, on the body, per reference area [MPa]) of a 3-D
+        pair: t_tr = P_T (t_n - eps_T ds), P_T = I - N_f N_f^T, returned to |t| <= mu p on its norm
+        (see the module docstring).  Sets t_vec, t_trial (the trial vector) and bound."""
+        s, c, h = self.contact.solver, self.contact, self.hist
+        t_n = ufl.as_vector([h[0], h[1], h[2]])
+        d1, d0 = tool.translation(lam), tool.translation(lam_c)
+        ds_rel = (s.u - c.u_c) - ufl.as_vector([d1[i] - d0[i] for i in range(3)])
+        if self.law == "coulomb":
+            Nf, bound, active = N, self.friction * self.p, 1.0
+        else:
+            Nf = ufl.as_vector([h[3], h[4], h[5]])
+            bound = self.friction * h[6]
+            active = ufl.conditional(ufl.lt(g, 0.0), 1.0, 0.0)
+        trial = t_n - self.tangential_penalty_c * ds_rel
+        t_tr = trial - ufl.dot(Nf, trial) * Nf
+        # slip where |t_tr| > bound (then |t_tr| > 0: the guard only keeps the unused branch finite)
+        norm = ufl.sqrt(ufl.dot(t_tr, t_tr) + _TINY)
+        t = ufl.conditional(ufl.gt(ufl.dot(t_tr, t_tr), bound * bound), (bound / norm) * t_tr, t_tr)
+        self.t_vec = active * t
+        self.t_trial = t_tr
+        self.bound = bound
+        return self.t_vec
 
     def _nodal_weight(self, facet_tags, tag, weight):
         """CG1 Function: int N_i w dA0 (exact) / int N_i dA0 (nodal rule) at the pair's nodes."""
@@ -265,7 +341,8 @@ class ContactPair:
         return self.contact.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
 
     def force(self):
-        """Total contact force (r, z) exerted BY the tool ON the body [N] (2 pi r included)."""
+        """Total contact force (r, z) exerted BY the tool ON the body [N] (2 pi r included); (x, y, z)
+        in 3-D."""
         return np.array([self._sum(f) for f in self._force])
 
     def normal_force(self):
@@ -273,7 +350,12 @@ class ContactPair:
         return self._sum(self._normal_force)
 
     def tangential_force(self):
-        """int t_T w dA0 (signed, along T = (N_z, -N_r)) [N]; 0 without friction."""
+        """int t_T w dA0 (signed, along T = (N_z, -N_r)) [N]; 0 without friction.  3-D: the vector
+        int t w dA0 (3,) [N] of the tangential tractions (zeros without friction)."""
+        if self.gdim == 3:
+            if self.t_vec is None:
+                return np.zeros(3)
+            return np.array([self._sum(f) for f in self._tangential_force])
         if self.t_scalar is None:
             return 0.0
         return self._sum(self._tangential_force)
@@ -286,8 +368,8 @@ class ContactPair:
             facets = self.facet_tags.find(self.tag)
             blocks = fem.locate_dofs_topological(Vc, s.mesh.topology.dim - 1, facets)
             blocks = blocks[blocks < Vc.dofmap.index_map.size_local]
-            X = Vc.tabulate_dof_coordinates()[blocks, :2]
-            self._nodes = (X, np.asarray(vmap).reshape(-1, 2)[blocks])
+            X = Vc.tabulate_dof_coordinates()[blocks, :self.gdim]
+            self._nodes = (X, np.asarray(vmap).reshape(-1, self.gdim)[blocks])
         X, idx = self._nodes
         g, _ = self.tool.gap_np(X + s.w.x.array[idx], s.lam)
         return g
@@ -439,4 +521,4 @@ class PenaltyContact:
 
 
 __all__ = ["Tool", "CircularTool", "SphericalPunch", "DieShoulder", "FlatWall", "ContactPair",
-           "PenaltyContact", "default_penalty", "PENALTY_FACTOR", "LAWS", "NODAL_RULE"]
+           "PenaltyContact", "default_penalty", "PENALTY_FACTOR", "LAWS", "NODAL_RULE", "nodal_rule"]

@@ -13,8 +13,8 @@ from fenics_plast.schema import KG_M3, M_S, OPTIONAL, REQUIRED, SCHEMA, US, Key,
 DOCS_PATH = Path(__file__).resolve().parent.parent / "docs" / "SCENE_KEYS.md"
 
 _TYPES = {"str": "string", "int": "integer", "float": "number", "bool": "boolean", "floats": "list of numbers",
-          "strs": "list of strings", "vector": "[x, y]", "values": "value(s)", "segments": "list of segments",
-          "path": "table {t, x, y}"}
+          "strs": "list of strings", "vector": "[x, y] (3-D: [x, y, z])", "values": "value(s)", "segments": "list of segments",
+          "path": "table {t, x, y (, z)}"}
 _SCALES = {US: "written in µs", M_S: "written in m/s", KG_M3: "written in kg/m³"}
 
 
@@ -93,6 +93,10 @@ def keys_markdown() -> str:
         "are the names of the mesh's Gmsh physical groups. A key that applies only to some variants of its",
         "table (\"applies to\") is an error elsewhere; an unknown key or name is an error, with the",
         "allowed ones listed.",
+        "",
+        "Geometry (`mesh.geometry`): 2-D scenes (axisymmetric, plane strain) give points and directions as",
+        "[x, y] and name components x, y (r, z); 3-D scenes (`geometry = \"3d\"`, hexahedral meshes whose",
+        "regions are physical volumes and boundaries physical surfaces) give [x, y, z] and name x, y, z.",
         "",
         "Any key can be overridden from the command line: `fenics-plast run SCENE.toml --set",
         "contact.punch.friction=0.15` (the value is parsed as a TOML value, else taken as a string, and",

@@ -77,14 +77,38 @@ class MeshError(ValueError):
     """A mesh file cannot be read or meshed, or names a parameter it does not define."""
 
 
+_GMSH_HEXAHEDRON = 5
+
+
+def _require_hexahedra(name, groups):
+    """MeshError unless every cell of the physical volumes is a linear hexahedron (rank 0, gmsh open)."""
+    counts: dict[str, int] = {}
+    for dim, tag in groups.values():
+        if dim != 3:
+            continue
+        for e in gmsh.model.getEntitiesForPhysicalGroup(3, tag):
+            types, elements, _ = gmsh.model.mesh.getElements(3, e)
+            for t, els in zip(types, elements):
+                if t != _GMSH_HEXAHEDRON and len(els):
+                    kind = gmsh.model.mesh.getElementProperties(t)[0]
+                    counts[kind] = counts.get(kind, 0) + len(els)
+    if counts:
+        what = ", ".join(f"{n} {k}" for k, n in counts.items())
+        raise MeshError(f"{name}: the 3-D elements are linear hexahedra only; this mesh has {what} (use "
+                        f"Transfinite Volume + Recombine, or Extrude with Layers and Recombine)")
+
+
 def mesh_from_file(comm, path, parameters=None, refine=1, gdim=2):
     """A dolfinx mesh and its named groups from a Gmsh ``.geo`` (meshed here) or ``.msh`` file.
 
     ``parameters`` (name -> number) set the .geo's ``DefineConstant`` values "Parameters/<name>";
     ``refine`` multiplies those whose name starts with ``cells`` (rounded to an integer). A name
     the file does not define, a .msh with parameters or refine, and Gmsh's own errors raise
-    :class:`MeshError` with Gmsh's message. Returns ``(mesh, cell_tags, facet_tags, groups)`` with
-    ``groups`` = {physical name: (dim, tag)} (dim 2: cell regions, dim 1: facet groups).
+    :class:`MeshError` with Gmsh's message. ``gdim``: 2 (quadrilaterals; physical surfaces are the cell
+    regions, physical curves the facet groups) or 3 (hexahedra only, meshed with ``generate(3)``;
+    physical volumes are the cell regions, physical surfaces the facet groups). Returns
+    ``(mesh, cell_tags, facet_tags, groups)`` with ``groups`` = {physical name: (dim, tag)} (dim = gdim:
+    cell regions, dim = gdim - 1: facet groups).
     """
     path = Path(path)
     parameters = dict(parameters or {})
@@ -96,6 +120,9 @@ def mesh_from_file(comm, path, parameters=None, refine=1, gdim=2):
     if suffix == ".msh" and (parameters or refine != 1):
         raise MeshError(f"mesh file {path}: a .msh file takes no parameters and no refine (use a .geo)")
     values = {k: (v * refine if k.startswith("cells") else v) for k, v in parameters.items()}
+    if gdim not in (2, 3):
+        raise ValueError(f"gdim must be 2 or 3, got {gdim}")
+    region = "surface" if gdim == 2 else "volume"
     gmsh.initialize()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
@@ -117,19 +144,21 @@ def mesh_from_file(comm, path, parameters=None, refine=1, gdim=2):
                 gmsh.open(str(path))
                 if suffix == ".geo":
                     gmsh.model.geo.synchronize()
-                    gmsh.model.mesh.generate(2)
+                    gmsh.model.mesh.generate(gdim)
                 for dim, tag in gmsh.model.getPhysicalGroups():
                     groups[gmsh.model.getPhysicalName(dim, tag)] = (dim, tag)
-                if not any(d == 2 for d, _ in groups.values()):
-                    raise MeshError(f"{path.name} has no physical surface: name the body's region(s) with "
-                                    f"Physical Surface(\"name\") so that its cells are kept")
-                owner = {}          # a surface in two physical surfaces would duplicate its cells
+                if not any(d == gdim for d, _ in groups.values()):
+                    raise MeshError(f"{path.name} has no physical {region}: name the body's region(s) with "
+                                    f"Physical {region.capitalize()}(\"name\") so that its cells are kept")
+                owner = {}          # an entity in two physical groups of cells would duplicate its cells
                 for name, (dim, tag) in groups.items():
-                    for e in (gmsh.model.getEntitiesForPhysicalGroup(2, tag) if dim == 2 else ()):
+                    for e in (gmsh.model.getEntitiesForPhysicalGroup(gdim, tag) if dim == gdim else ()):
                         if e in owner:
-                            raise MeshError(f"{path.name}: physical surfaces {owner[e]!r} and {name!r} share "
-                                            f"surface {e}: regions must not overlap (a cell lies in one region)")
+                            raise MeshError(f"{path.name}: physical {region}s {owner[e]!r} and {name!r} share "
+                                            f"{region} {e}: regions must not overlap (a cell lies in one region)")
                         owner[e] = name
+                if gdim == 3:
+                    _require_hexahedra(path.name, groups)
             except MeshError as e:
                 error = str(e)
             except Exception as e:     # gmsh raises plain Exception with its last error

@@ -17,7 +17,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from fenics_plast.expressions import parse_expression
-from fenics_plast.schema import COMPONENTS
+from fenics_plast.schema import component_index
 from fenics_plast.quadrature import von_mises
 
 N_MM_TO_J = 1e-3
@@ -49,21 +49,27 @@ class Body:
     """What the quantities need from a solver (filled by the runner).
 
     * ``V``: the CG1 vector space of the displacement ``u`` (a Function on V, owned + ghosts);
-    * ``X``: reference coordinates of V's nodes (n, 2); ``positions()``: current ones (n, 2);
+    * ``X``: reference coordinates of V's nodes (n, gdim); ``positions()``: current ones (n, gdim), gdim 2
+      or 3 (``geometry``: the scene's mesh.geometry, which names the components);
     * ``qmap``: the :class:`fenics_plast.quadrature.QuadratureMap` (eqps, temperature, tau per owned
       point);
     * ``reaction(dofs)`` [N] for owned V-dof indices of one component (unrolled, V numbering);
-    * ``tool_force(tool)`` -> (Fx, Fy) [N]; ``tool_translation(tool, t)`` -> (dx, dy) [mm];
+    * ``tool_force(tool)`` -> (Fx, Fy[, Fz]) [N]; ``tool_translation(tool, t)`` -> (dx, dy[, dz]) [mm];
       ``energies()`` -> dict [N mm] (explicit only).
     """
 
     def __init__(self, comm, V, X, positions, qmap, cell_regions, reaction=None, tool_force=None,
-                 energies=None, tool_translation=None):
+                 energies=None, tool_translation=None, geometry="axisymmetric"):
         self.comm, self.V, self.X, self.positions, self.qmap = comm, V, X, positions, qmap
+        self.geometry = geometry
         self.cell_regions = cell_regions           # region name -> owned cell indices
         self.reaction, self.tool_force, self.energies = reaction, tool_force, energies
         self.tool_translation = tool_translation
         self.n_owned_nodes = V.dofmap.index_map.size_local
+
+    def component(self, name: str) -> int:
+        """Index of the component ``name`` (x, y, z; r, z in 2-D) in this body's geometry."""
+        return component_index(name, self.geometry)
 
     def group_nodes(self, facet_tags, tag, owned=True):
         nodes = fem.locate_dofs_topological(self.V, self.V.mesh.topology.dim - 1, facet_tags.find(tag))
@@ -111,15 +117,15 @@ class Quantities:
             f = b.reaction(self.reactions[(o.group, o.component)])
             return [o.scale * f / (1e3 if o.unit == "kN" else 1.0)]
         if q == "tool_force":
-            f = b.tool_force(o.tool)[COMPONENTS[o.component]]
+            f = b.tool_force(o.tool)[b.component(o.component)]
             return [o.scale * f / (1e3 if o.unit == "kN" else 1.0)]
         if q == "tool_displacement":
-            return [o.scale * float(b.tool_translation(o.tool, time)[COMPONENTS[o.component]])]
+            return [o.scale * float(b.tool_translation(o.tool, time)[b.component(o.component)])]
         if q == "expression":
             return [float(self._expressions[name].evaluate(t=time, **row))]
         if q in ("displacement", "position"):
             nodes = self._nodes[name]
-            c = COMPONENTS[o.component]
+            c = b.component(o.component)
             x = b.positions()[nodes, c]
             if q == "displacement":
                 x = o.scale * (x - b.X[nodes, c])
@@ -127,7 +133,10 @@ class Quantities:
         if q == "extent":
             x = b.positions()[: b.n_owned_nodes]
             nodes = self._nodes.get(name)
-            vals = (x if nodes is None else x[nodes])[:, COMPONENTS[o.component]]
+            x = x if nodes is None else x[nodes]
+            # radial: distance from the z axis (3-D), r itself in axisymmetry
+            vals = (np.hypot(x[:, 0], x[:, 1]) if o.component == "radial" and x.shape[1] == 3 else
+                    x[:, 0] if o.component == "radial" else x[:, b.component(o.component)])
             if o.which == "max":
                 return [comm.allreduce(float(vals.max()) if vals.size else -np.inf, op=MPI.MAX)]
             return [comm.allreduce(float(vals.min()) if vals.size else np.inf, op=MPI.MIN)]
@@ -145,7 +154,7 @@ class Quantities:
         if q == "energy":
             e = b.energies()
             keys = ENERGIES if o.energy == "all" else (o.energy,)
-            return [e[k] if k == "balance_error" else e[k] * N_MM_TO_J for k in keys]
+            return [e[k] if k == "balance_error" else o.scale * e[k] * N_MM_TO_J for k in keys]
         return []
 
     def row(self, time: float) -> dict[str, float]:

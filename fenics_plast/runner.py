@@ -3,7 +3,8 @@
 One runner for every problem; it knows no scene by name. What it does, in order:
 
 1. mesh the scene's Gmsh file (:func:`fenics_plast.meshing.mesh_from_file`) and check that every
-   group the scene names exists, with the right dimension (regions: surfaces, groups: curves);
+   group the scene names exists, with the right dimension (2-D: regions are surfaces, groups curves;
+   3-D: regions are volumes, groups surfaces);
 2. build the material(s), the kinematics and the solver of ``analysis.type``;
 3. apply the boundary conditions and loads, tools and contact pairs: only what the scene names is
    assembled (no contact pairs: no contact forms; explicit: no Newton);
@@ -25,7 +26,7 @@ from fenics_plast.checkpoint import Checkpointer, scene_settings
 from fenics_plast.material import Hardening, Material, MaterialRegions
 from fenics_plast.meshing import MeshError, mesh_from_file
 from fenics_plast.errors import SceneError
-from fenics_plast.schema import COMPONENTS
+from fenics_plast.schema import component_index
 
 US = 1e-6
 
@@ -50,38 +51,42 @@ def read_mesh(problem, comm):
     """Mesh + tags + groups; checks every group and region the scene names (SceneError, exit 2)."""
     m = problem.mesh
     where = f"{problem.path}"
+    gdim = 3 if m.geometry == "3d" else 2     # cell regions have dim gdim, facet groups gdim - 1
     try:
-        mesh, ct, ft, groups = mesh_from_file(comm, problem.mesh_file, m.parameters, m.refine)
+        mesh, ct, ft, groups = mesh_from_file(comm, problem.mesh_file, m.parameters, m.refine, gdim=gdim)
     except MeshError as e:
         raise SceneError(f"{where}: mesh.file: {e}") from None
-    facets = sorted(n for n, (d, _) in groups.items() if d == 1)
-    regions = sorted(n for n, (d, _) in groups.items() if d == 2)
+    fdim = gdim - 1
+    facets = sorted(n for n, (d, _) in groups.items() if d == fdim)
+    regions = sorted(n for n, (d, _) in groups.items() if d == gdim)
+    facet_kind = "facet group (Physical Curve)" if gdim == 2 else "facet group (Physical Surface)"
+    region_kind = "region (Physical Surface)" if gdim == 2 else "region (Physical Volume)"
 
     def need(dotted, name, dim):
         if name in groups and groups[name][0] == dim:
             return
-        kind, have = ("facet group (Physical Curve)", facets) if dim == 1 else ("region (Physical Surface)", regions)
+        kind, have = (facet_kind, facets) if dim == fdim else (region_kind, regions)
         if name in groups:
-            raise SceneError(f"{where}: {dotted} = {name!r} is not a {kind} of the mesh: it is a "
-                             f"{'region' if dim == 1 else 'facet group'}")
+            what = {fdim: "facet group", gdim: "region"}.get(groups[name][0], f"group of dimension {groups[name][0]}")
+            raise SceneError(f"{where}: {dotted} = {name!r} is not a {kind} of the mesh: it is a {what}")
         raise SceneError(f"{where}: {dotted} = {name!r} is not a {kind} of the mesh: the mesh's "
-                         f"{'facet groups' if dim == 1 else 'regions'} are {', '.join(have) or 'none'}")
+                         f"{'facet groups' if dim == fdim else 'regions'} are {', '.join(have) or 'none'}")
     for n, b in problem.boundary.items():
-        need(f"boundary.{n}.group", b.group, 1)
+        need(f"boundary.{n}.group", b.group, fdim)
     for n, c in problem.contact.items():
-        need(f"contact.{n}.group", c.group, 1)
+        need(f"contact.{n}.group", c.group, fdim)
     for n, o in problem.outputs.items():
         for k in ("group", "opposite"):
             if o.get(k) is not None:
-                need(f"outputs.{n}.{k}", o.get(k), 1)
+                need(f"outputs.{n}.{k}", o.get(k), fdim)
         for r in o.get("regions") or ():
-            need(f"outputs.{n}.regions", r, 2)
+            need(f"outputs.{n}.regions", r, gdim)
     for n, mat in problem.materials.items():
         for r in mat.regions or ():
-            need(f"materials.{n}.regions", r, 2)
+            need(f"materials.{n}.regions", r, gdim)
     for n, iv in problem.initial_velocity.items():
         for r in iv.regions or ():
-            need(f"initial_velocity.{n}.regions", r, 2)
+            need(f"initial_velocity.{n}.regions", r, gdim)
     check_material_regions(problem, ct, groups, mesh)
     return mesh, ct, ft, groups
 
@@ -102,10 +107,11 @@ def check_material_regions(problem, cell_tags, groups, mesh):
                 raise SceneError(f"{problem.path}: materials.{n}.regions: region {r!r} is also in "
                                  f"materials.{owner[r]}.regions: a cell belongs to one material")
             owner[r] = n
-    unclaimed = sorted(r for r, (d, _) in groups.items() if d == 2 and r not in owner)
+    tdim = mesh.topology.dim
+    unclaimed = sorted(r for r, (d, _) in groups.items() if d == tdim and r not in owner)
     if not unclaimed:
         return
-    n_owned = mesh.topology.index_map(mesh.topology.dim).size_local
+    n_owned = mesh.topology.index_map(tdim).size_local
     counts = [int((cell_tags.find(groups[r][1]) < n_owned).sum()) for r in unclaimed]
     counts = mesh.comm.allreduce(np.array(counts), op=MPI.SUM)
     what = ", ".join(f"{r!r} ({c} cells)" for r, c in zip(unclaimed, counts))
@@ -146,16 +152,18 @@ def contact_modulus(material, mesh, facet_tags, tag):
 
 
 def cell_regions(cell_tags, groups, n_owned):
+    """{region name: owned cell indices} of the cell regions (groups of the cells' dimension)."""
     out = {}
     for name, (dim, tag) in groups.items():
-        if dim == 2:
+        if dim == cell_tags.dim:
             c = cell_tags.find(tag)
             out[name] = c[c < n_owned]
     return out
 
 
 def initial_velocity_field(problem, V, cell_tags, groups, scale) -> np.ndarray:
-    """Nodal initial velocities (n_local_nodes, 2), owned and ghost nodes, from [initial_velocity].
+    """Nodal initial velocities (n_local_nodes, gdim), owned and ghost nodes, from [initial_velocity]
+    (gdim: V's block size, 2 or 3).
 
     Each table gives its value (numbers or expressions of x, y, z; ``scale`` converts the file's unit)
     at the nodes of its regions' cells, or of the whole body without ``regions``. A node covered by
@@ -167,7 +175,7 @@ def initial_velocity_field(problem, V, cell_tags, groups, scale) -> np.ndarray:
     tdim = mesh.topology.dim
     X = V.tabulate_dof_coordinates()
     n = X.shape[0]
-    velocity = np.zeros((n, 2))
+    velocity = np.zeros((n, V.dofmap.index_map_bs))
     marker = fem.Function(fem.FunctionSpace(mesh, ("Lagrange", 1)))
     for name, iv in problem.initial_velocity.items():
         if iv.regions is None:
@@ -186,26 +194,31 @@ def initial_velocity_field(problem, V, cell_tags, groups, scale) -> np.ndarray:
 
 
 def symmetry_component(V, facet_tags, tag, where):
-    """The component normal to a straight symmetry line (0: normal to x, 1: normal to y)."""
+    """The component normal to a symmetry group: the coordinate that is constant over its nodes (0: x,
+    1: y, 2: z in 3-D). The group must lie in a line (2-D) or plane (3-D) normal to an axis, e.g. x = 0
+    or z = 5 (collective; SceneError naming ``where`` otherwise)."""
+    gdim = V.mesh.geometry.dim
     nodes = fem.locate_dofs_topological(V, V.mesh.topology.dim - 1, facet_tags.find(tag))
-    X = V.tabulate_dof_coordinates()[nodes, :2]
+    X = V.tabulate_dof_coordinates()[nodes, :gdim]
     comm = V.mesh.comm
-    lo = X.min(axis=0) if len(X) else np.full(2, np.inf)
-    hi = X.max(axis=0) if len(X) else np.full(2, -np.inf)
+    lo = X.min(axis=0) if len(X) else np.full(gdim, np.inf)
+    hi = X.max(axis=0) if len(X) else np.full(gdim, -np.inf)
     comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)        # buffer form: element-wise on arrays
     comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
     span = hi - lo
     scale = max(span.max(), 1e-300)
-    if span[0] <= 1e-9 * scale:
-        return 0
-    if span[1] <= 1e-9 * scale:
-        return 1
-    raise SceneError(f"{where}: type = 'symmetry' needs a straight group normal to x or y; this one "
-                     f"spans {span[0]:.4g} mm in x and {span[1]:.4g} mm in y")
+    for c in range(gdim):
+        if span[c] <= 1e-9 * scale:
+            return c
+    spans = ", ".join(f"{span[c]:.4g} mm in {'xyz'[c]}" for c in range(gdim))
+    shape = "a straight group normal to x or y" if gdim == 2 else "a plane group normal to x, y or z"
+    raise SceneError(f"{where}: type = 'symmetry' needs {shape}; this one spans {spans}")
 
 
-def components_of(b):
-    return [COMPONENTS[c] for c in b.components]
+def components_of(b, geometry="axisymmetric"):
+    """Indices of a [boundary] table's components in ``geometry`` (mesh.geometry): "z" is 1 in 2-D but
+    2 in 3-D, so 3-D callers must pass the geometry."""
+    return [component_index(c, geometry) for c in b.components]
 
 
 def values_of(b, n):
@@ -213,16 +226,17 @@ def values_of(b, n):
     return list(v) if isinstance(v, tuple) else [v] * n
 
 
-def tool_path(path, time_scale=1.0):
-    """A tool's translation ``(t, use_ufl) -> (dx, dy)`` from a validated ``path`` table (component ->
-    Value of t), or None (fixed). ``time_scale``: seconds per unit of the table's t (explicit: µs)."""
+def tool_path(path, time_scale=1.0, dim=2):
+    """A tool's translation ``(t, use_ufl) -> (dx, dy)`` (``dim`` = 3: (dx, dy, dz)) [mm] from a
+    validated ``path`` table (component -> Value of t), or None (fixed). ``time_scale``: seconds per
+    unit of the table's t (explicit: µs)."""
     if not path:
         return None
 
     def translation(t, use_ufl):
         tt = t * (1.0 / time_scale) if time_scale != 1.0 else t
         out = []
-        for c in ("x", "y"):
+        for c in "xyz"[:dim]:
             val = path.get(c)
             if val is None:
                 out.append(ufl.as_ufl(0.0) if use_ufl else 0.0)
@@ -232,14 +246,33 @@ def tool_path(path, time_scale=1.0):
     return translation
 
 
+def tool_dim(spec) -> int:
+    """2 or 3: the space a validated [tools.<name>] table lives in (validation has matched its vectors
+    to mesh.geometry: 3-D shapes, 3-vectors, a profile with an axis)."""
+    if spec.shape in ("sphere", "cylinder", "torus"):
+        return 3
+    vec = spec.get("point") if spec.shape == "plane" else spec.get("center")
+    return 3 if vec is not None and len(vec) == 3 else 2
+
+
 def tool_of(name, spec, time_scale=1.0):
-    """A :mod:`fenics_plast.tools` tool from a validated [tools.<name>] table."""
+    """A :mod:`fenics_plast.tools` tool from a validated [tools.<name>] table (2-D or 3-D, from the
+    table itself: see :func:`tool_dim`)."""
     from fenics_plast import tools as T
-    path = tool_path(spec.path, time_scale)
+    path = tool_path(spec.path, time_scale, dim=tool_dim(spec))
     if spec.shape == "plane":
         return T.Plane(spec.point, spec.normal, path=path, name=name)
     if spec.shape == "circle":
         return T.Circle(spec.center, spec.radius, path=path, name=name)
+    if spec.shape == "sphere":
+        return T.Sphere(spec.center, spec.radius, path=path, name=name)
+    if spec.shape == "cylinder":
+        return T.Cylinder(spec.center, spec.axis, spec.radius, path=path, name=name)
+    if spec.shape == "torus":
+        return T.Torus(spec.center, spec.axis, spec.ring_radius, spec.radius, path=path, name=name)
+    if spec.center is not None:         # 3-D: revolved about `axis` through `center`
+        return T.RevolvedProfile(spec.segments, spec.center, spec.axis, body_side=spec.body_side, path=path,
+                                 name=name)
     return T.Profile(spec.segments, body_side=spec.body_side, path=path, name=name)
 
 

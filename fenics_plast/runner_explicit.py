@@ -1,8 +1,11 @@
 """Explicit analyses: central differences with a lumped mass (see :mod:`fenics_plast.runner`).
 
 Boundary conditions are velocity constraints: ``fixed``, ``axis`` and ``symmetry`` hold components
-at zero velocity (sliding supports); ``velocity`` and ``displacement`` prescribe a component as a
-function of time. ``traction`` and ``pressure`` are dead loads. Times in scene files are in µs.
+at zero velocity (sliding supports; in 3-D scenes, ``problem.mesh.geometry == "3d"`` on a hexahedral
+mesh, components x, y, z and symmetry planes normal to x, y or z, as :mod:`fenics_plast.runner`
+resolves them: ``components_of``, ``symmetry_component``); ``velocity`` and ``displacement``
+prescribe a component as a function of time. ``traction`` and ``pressure`` are dead loads. Times in
+scene files are in µs.
 History rows are ``output.history_points`` equally spaced times (time_us + the declared outputs).
 """
 from __future__ import annotations
@@ -29,18 +32,19 @@ def velocity_constraints(problem, V, ft, groups):
     """Homogeneous velocity constraints [(component, facets)] and the prescribed motions
     [(component, facets, kind, value)] of [boundary]."""
     zero, moving, loads = [], [], []
+    geometry = problem.mesh.geometry          # "z" is component 1 in 2-D, 2 in 3-D
     for name, b in problem.boundary.items():
         tag = groups[b.group][1]
         facets = ft.find(tag)
         where = f"{problem.path}: boundary.{name}"
         if b.type == "fixed":
-            zero += [(c, facets) for c in components_of(b)]
+            zero += [(c, facets) for c in components_of(b, geometry)]
         elif b.type == "axis":
             zero.append((0, facets))
         elif b.type == "symmetry":
             zero.append((symmetry_component(V, ft, tag, where), facets))
         elif b.type in ("velocity", "displacement"):
-            comps = components_of(b)
+            comps = components_of(b, geometry)
             for c, val in zip(comps, values_of(b, len(comps))):
                 if val.depends_on_space:
                     raise SceneError(f"{where}.value: explicit prescribed motion must be uniform over the group "
@@ -76,12 +80,12 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
         else:
             solver.add_prescribed_displacement(c, dofs, f)
     for name, b in loads:
-        comps = [0, 1] if b.type == "pressure" else components_of(b)
+        comps = list(range(solver.bs)) if b.type == "pressure" else components_of(b, problem.mesh.geometry)
         vals = values_of(b, len(comps)) if b.type != "pressure" else [b.value]
         if b.type == "pressure" or any(v.depends_on_space for v in vals):
             raise SceneError(f"{problem.path}: boundary.{name}: explicit analyses take uniform tractions "
                              f"(functions of t only); pressure loads are for static analyses")
-        fns = [None, None]
+        fns = [None] * solver.bs
         for c, v in zip(comps, vals):
             fns[c] = (lambda v: (lambda t: float(v.evaluate(t=t / US))))(v)
         solver.add_traction(ft, groups[b.group][1], tuple(fn or (lambda t: 0.0) for fn in fns))
@@ -99,11 +103,13 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
     solver.set_velocity(initial_velocity_field(problem, solver.V, ct, groups, M_S))
 
     def tool_force(tool):
-        return sum((np.asarray(p.force()) for n, p in pairs.items() if problem.contact[n].tool == tool), np.zeros(2))
+        return sum((np.asarray(p.force()) for n, p in pairs.items() if problem.contact[n].tool == tool),
+                   np.zeros(solver.bs))
 
     body = Body(comm, solver.V, solver._X, solver.nodal_positions, solver.qmap,
                 cell_regions(ct, groups, solver.qmap.n_owned), tool_force=tool_force,
-                energies=solver.energies, tool_translation=lambda tool, t: tools[tool].translation(t, use_ufl=False))
+                energies=solver.energies, tool_translation=lambda tool, t: tools[tool].translation(t, use_ufl=False),
+                geometry=problem.mesh.geometry)
     return SimpleNamespace(solver=solver, material=material, tools=tools, pairs=pairs, body=body, mesh=mesh,
                            cell_tags=ct, facet_tags=ft, groups=groups)
 

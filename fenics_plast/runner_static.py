@@ -15,7 +15,7 @@ import ufl
 from fenics_plast.errors import RunError
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.errors import SceneError
-from fenics_plast.schema import COMPONENTS
+from fenics_plast.schema import component_index
 from fenics_plast.quadrature import von_mises
 from fenics_plast.quantities import Body, Quantities
 from fenics_plast.runner import (body_material, cell_regions, checkpointer, components_of, contact_modulus,
@@ -37,30 +37,32 @@ def apply_boundary(problem, s, ft, groups):
     constrained: dict[str, set] = {}
     X = ufl.SpatialCoordinate(s.mesh)
     w = s.kin.weight
+    geometry, gdim = problem.mesh.geometry, s.kin.gdim
+    coords = dict(x=X[0], y=X[1], z=X[2]) if gdim == 3 else dict(x=X[0], y=X[1])
     for name, b in problem.boundary.items():
         tag = groups[b.group][1]
         where = f"{problem.path}: boundary.{name}"
         if b.type in ("fixed", "axis", "symmetry"):
-            comps = (components_of(b) if b.type == "fixed" else
+            comps = (components_of(b, geometry) if b.type == "fixed" else
                      [0] if b.type == "axis" else [symmetry_component(s.displacement_space()[0], ft, tag, where)])
             for c in comps:
                 s.add_dirichlet(c, ft, tag, 0.0)
         elif b.type == "displacement":
-            comps = components_of(b)
+            comps = components_of(b, geometry)
             for c, val in zip(comps, values_of(b, len(comps))):
                 s.add_prescribed(c, ft, tag, _prescribed(val))
         elif b.type in ("traction", "pressure"):
             ds = ufl.Measure("ds", domain=s.mesh, subdomain_data=ft)(tag)
             t_ufl = s.load
             if b.type == "pressure":
-                p = b.value.to_ufl(x=X[0], y=X[1], t=t_ufl)
+                p = b.value.to_ufl(**coords, t=t_ufl)
                 traction = -p * ufl.FacetNormal(s.mesh)
             else:
-                comps = components_of(b)
+                comps = components_of(b, geometry)
                 vals = values_of(b, len(comps))
-                tv = [ufl.as_ufl(0.0), ufl.as_ufl(0.0)]
+                tv = [ufl.as_ufl(0.0)] * gdim
                 for c, val in zip(comps, vals):
-                    tv[c] = val.to_ufl(x=X[0], y=X[1], t=t_ufl)
+                    tv[c] = val.to_ufl(**coords, t=t_ufl)
                 traction = ufl.as_vector(tv)
             s.add_residual(-ufl.dot(traction, s.v) * w * ds)
             continue
@@ -77,7 +79,7 @@ def reaction_dofs(problem, s, ft, groups, constrained):
     for name, o in problem.outputs.items():
         if o.quantity != "reaction":
             continue
-        c = COMPONENTS[o.component]
+        c = component_index(o.component, problem.mesh.geometry)
         if c not in constrained.get(o.group, set()):
             raise SceneError(f"{problem.path}: outputs.{name}: group {o.group!r} has no boundary condition "
                              f"on component {o.component}: there is no reaction to record")
@@ -124,7 +126,9 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None) -> Simp
     ana = problem.analysis
     material, _ = body_material(problem, ct, groups, mesh.topology.index_map(mesh.topology.dim).size_local)
     kin = Kinematics(mesh, problem.mesh.geometry)
-    opts = dict(rtol=ana.rtol, atol=ana.atol, max_iterations=ana.max_iterations, linesearch=ana.linesearch)
+    opts = dict(rtol=ana.rtol, atol=ana.atol, max_iterations=ana.max_iterations, linesearch=ana.linesearch,
+                linear_solver=ana.linear_solver, linear_rtol=ana.linear_rtol,
+                linear_max_iterations=ana.linear_max_iterations)
     s = StaticSolver(kin, material, element=problem.mesh.element, log=log, progress=progress, **opts)
     constrained = apply_boundary(problem, s, ft, groups)
     tools = {n: tool_of(n, t) for n, t in problem.tools.items()}
@@ -133,19 +137,22 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None) -> Simp
     reactions = reaction_dofs(problem, s, ft, groups, constrained)
 
     Vc, vmap = s.displacement_space()
-    X = Vc.tabulate_dof_coordinates()[:, :2].copy()
+    gdim = kin.gdim
+    X = Vc.tabulate_dof_coordinates()[:, :gdim].copy()
 
     def positions():
-        return X + s.w.x.array[vmap].reshape(-1, 2)
+        return X + s.w.x.array[vmap].reshape(-1, gdim)
 
     def tool_force(tool):
-        return sum((p.force() for n, p in pairs.items() if problem.contact[n].tool == tool), np.zeros(2))
+        return sum((np.asarray(p.force()) for n, p in pairs.items() if problem.contact[n].tool == tool),
+                   np.zeros(gdim))
 
     def tool_translation(tool, t):
         return tools[tool].translation(t, use_ufl=False)
 
     body = Body(comm, Vc, X, positions, s.qmap, cell_regions(ct, groups, s.qmap.n_owned),
-                reaction=s.reaction, tool_force=tool_force, tool_translation=tool_translation)
+                reaction=s.reaction, tool_force=tool_force, tool_translation=tool_translation,
+                geometry=problem.mesh.geometry)
     return SimpleNamespace(solver=s, material=material, tools=tools, contact=contact, pairs=pairs,
                            reactions=reactions, body=body, positions=positions, Vc=Vc, mesh=mesh, cell_tags=ct,
                            facet_tags=ft, groups=groups)
@@ -160,8 +167,9 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
     s, contact, pairs, mesh, positions, Vc = b.solver, b.contact, b.pairs, b.mesh, b.positions, b.Vc
     ana = problem.analysis
     quantities = Quantities(problem.outputs, b.body, b.facet_tags, b.groups, b.reactions)
-    cells = mesh.topology.index_map(2).size_global
+    cells = mesh.topology.index_map(mesh.topology.dim).size_global
     output.log(f"{problem.name}: {cells} cells, {s.dofs} dofs, element {problem.mesh.element}, "
+               f"linear solver {ana.linear_solver}, "
                f"physics {', '.join(problem.active_physics) or 'elastic'}, set-up {time.perf_counter() - t_setup:.1f} s")
 
     xf = open_fields(problem, output, comm, mesh)

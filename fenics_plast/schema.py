@@ -17,8 +17,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["SCHEMA", "SECTIONS", "Key", "Table", "REQUIRED", "OPTIONAL", "COMPONENTS", "LAWS", "US", "M_S",
-           "KG_M3"]
+__all__ = ["SCHEMA", "SECTIONS", "Key", "Table", "REQUIRED", "OPTIONAL", "COMPONENTS", "COMPONENTS_3D", "GEOMETRIES",
+           "component_index", "component_names", "vector_size", "LAWS", "US", "M_S", "KG_M3"]
 
 
 class _Marker:
@@ -32,8 +32,28 @@ class _Marker:
 REQUIRED = _Marker("REQUIRED")   # must be given
 OPTIONAL = _Marker("OPTIONAL")   # may be omitted; then the attribute is None
 
-#: component names of vectors: x = r and y = z in axisymmetry
+#: component names of vectors in 2-D: x = r and y = z (in axisymmetry; plane strain accepts the same names)
 COMPONENTS = {"x": 0, "y": 1, "r": 0, "z": 1}
+#: component names in 3-D: z is the third axis (index 2), there is no r
+COMPONENTS_3D = {"x": 0, "y": 1, "z": 2}
+GEOMETRIES = ("axisymmetric", "plane_strain", "3d")
+
+
+def component_names(geometry: str) -> dict[str, int]:
+    """{component name: index} of the displacement vector of ``geometry`` (see :data:`GEOMETRIES`)."""
+    return COMPONENTS_3D if geometry == "3d" else COMPONENTS
+
+
+def component_index(name: str, geometry: str) -> int:
+    """Index of component ``name`` in ``geometry``: "z" is 1 in 2-D (r, z) but 2 in 3-D; KeyError for a
+    name that does not apply (e.g. "r" in 3-D)."""
+    return component_names(geometry)[name]
+
+
+def vector_size(geometry: str) -> int:
+    """Entries of a point, direction or velocity in a scene of ``geometry``: 3 in 3-D, else 2."""
+    return 3 if geometry == "3d" else 2
+
 LAWS = ("linear", "swift", "voce", "table", "johnson_cook")
 JC = ("johnson_cook",)
 STATIC, EXPLICIT = ("static",), ("explicit",)
@@ -137,6 +157,16 @@ SCHEMA: dict[str, Table] = {
             "atol": Key("float", 1e-8, "Absolute residual tolerance.", "N", when={"type": STATIC}, **_pos()),
             "linesearch": Key("str", "bt", "SNES line search.", choices=("bt", "basic", "l2"),
                               when={"type": STATIC}),
+            "linear_solver": Key("str", "mumps", "Linear solver of each Newton iteration: 'mumps' (direct LU, "
+                                 "robust, the default) or 'gamg' (for large 3-D meshes: GMRES preconditioned with "
+                                 "PETSc's algebraic multigrid GAMG and the rigid-body modes as near-nullspace; "
+                                 "q1p0 condenses the cell dilatation exactly first). Same solution to the Newton "
+                                 "tolerance.", choices=("mumps", "gamg"), when={"type": STATIC}),
+            "linear_rtol": Key("float", 1e-8, "Relative tolerance of the iterative linear solve (linear_solver = "
+                               "'gamg').", when={"type": STATIC}, lo=0.0, hi=1.0),
+            "linear_max_iterations": Key("int", 500, "Iterations of the iterative linear solve (linear_solver = "
+                                         "'gamg') before the Newton iteration counts as failed (cut-back).",
+                                         when={"type": STATIC}, **_count()),
             "end_time": Key("float", REQUIRED, "Simulated time.", "µs", when={"type": EXPLICIT}, scale=US, **_pos()),
             "dt_safety": Key("float", 0.8, "Time step = dt_safety x the stable limit.", when={"type": EXPLICIT},
                              lo=0.0, hi=1.0, hi_open=False),
@@ -169,11 +199,14 @@ SCHEMA: dict[str, Table] = {
     "mesh": Table(
         "The mesh: a Gmsh `.geo` file (meshed when the run starts, with `[mesh.parameters]` set as its "
         "`DefineConstant` values \"Parameters/<name>\") or a `.msh` file. Regions and boundaries are Gmsh "
-        "physical groups (surfaces and curves), referred to by name.", optional=False, keys={
+        "physical groups, referred to by name: in 2-D regions are physical surfaces and boundaries physical "
+        "curves; in 3-D regions are physical volumes and boundaries physical surfaces.", optional=False, keys={
             "file": Key("str", REQUIRED, "Path of the .geo or .msh file, relative to the scene file."),
-            "geometry": Key("str", "axisymmetric", "2-D idealisation: x = r and y = z in axisymmetry.",
-                            choices=("axisymmetric", "plane_strain")),
-            "element": Key("str", "q1p0", "q1p0: Q1 displacement + DG0 dilatation (F-bar); q1: plain Q1.",
+            "geometry": Key("str", "axisymmetric", "axisymmetric (x = r, y = z; quadrilaterals), plane_strain "
+                            "(x, y; quadrilaterals) or 3d (x, y, z; hexahedra: vectors take 3 entries, "
+                            "components x, y, z).", choices=GEOMETRIES),
+            "element": Key("str", "q1p0", "q1p0: Q1 displacement + DG0 dilatation (F-bar); q1: plain Q1 "
+                           "(quadrilaterals in 2-D, hexahedra in 3-D).",
                            choices=("q1p0", "q1")),
             "refine": Key("int", 1, "Multiplies every mesh parameter whose name starts with `cells` (.geo only).",
                           **_count()),
@@ -182,7 +215,8 @@ SCHEMA: dict[str, Table] = {
     "materials": Table(
         "Materials, one table per name. Each applies to the cell regions it lists; a single material "
         "without `regions` applies to the whole mesh.", optional=False, collection=True, keys={
-            "regions": Key("strs", OPTIONAL, "Gmsh physical surface names (cell regions) this material fills."),
+            "regions": Key("strs", OPTIONAL, "Gmsh physical surface (3-D: volume) names, the cell regions this "
+                           "material fills."),
             "model": Key("str", "isochoric", "seed: be^-1 radial return (Almansi, Simo-Ortiz); isochoric: "
                          "exponential map in log strain.", choices=("seed", "isochoric")),
             "E": Key("float", REQUIRED, "Young's modulus.", "MPa", **_pos()),
@@ -244,14 +278,15 @@ SCHEMA: dict[str, Table] = {
         "Boundary conditions and loads, one table per name, each on a Gmsh facet group. Static: t is the "
         "pseudo-time; explicit: t is the time in µs. Values: " + _VALUE_DOC + ".",
         collection=True, discriminator="type", keys={
-            "group": Key("str", REQUIRED, "Gmsh physical curve name (facet group)."),
+            "group": Key("str", REQUIRED, "Gmsh physical curve (3-D: surface) name, a facet group."),
             "type": Key("str", REQUIRED, "fixed: components held at 0; displacement: prescribed [mm]; velocity "
                         "(explicit): prescribed [m/s]; traction: dead load [MPa] per reference area; pressure: "
                         "normal dead load [MPa], positive pushes into the body; symmetry: the normal component "
-                        "held at 0 (the group must be a straight line normal to x or y); axis: u_r = 0 "
-                        "(axisymmetric).",
+                        "held at 0 (the group must lie in a line (2-D) or plane (3-D) normal to x, y or z); axis: "
+                        "u_r = 0 (axisymmetric only).",
                         choices=("fixed", "displacement", "velocity", "traction", "pressure", "symmetry", "axis")),
-            "components": Key("strs", REQUIRED, "Components: x, y (r, z in axisymmetry).",
+            "components": Key("strs", REQUIRED, "Components: x, y (also r, z in 2-D: r = x, z = y); x, y, z "
+                              "in 3-D.",
                               when={"type": ("fixed", "displacement", "velocity", "traction")}),
             "value": Key("values", REQUIRED, "One value per component (a list), or one value for all.",
                          when={"type": ("displacement", "velocity", "traction", "pressure")}),
@@ -260,34 +295,49 @@ SCHEMA: dict[str, Table] = {
         "Initial velocity (explicit), one table per name.", collection=True, when_analysis=EXPLICIT, keys={
             "regions": Key("strs", OPTIONAL, "Cell regions; absent = the whole body. A node shared by two "
                            "tables' regions takes the last table's value."),
-            "value": Key("values", REQUIRED, "Velocity (x, y): numbers or expressions of x, y, z.", "m/s",
+            "value": Key("values", REQUIRED, "Velocity (x, y), in 3-D (x, y, z): numbers or expressions of x, "
+                         "y, z.", "m/s",
                          scale=M_S),
         }),
     "tools": Table(
         "Rigid analytic tools, one table per name, each moving along `path`. The body lies on the side the "
-        "normal points to (plane), outside (circle), or on `body_side` of the profile.",
+        "normal points to (plane), outside (circle, sphere, cylinder, torus), or on `body_side` of the profile. "
+        "2-D: plane, circle, profile; 3-D: plane, sphere, cylinder, torus, profile (revolved about `axis`).",
         collection=True, discriminator="shape", keys={
-            "shape": Key("str", REQUIRED, "plane: half-space; circle: disc (a sphere or torus in axisymmetry); "
-                         "profile: chain of line segments and circular arcs (revolved in axisymmetry).",
-                         choices=("plane", "circle", "profile")),
+            "shape": Key("str", REQUIRED, "plane: half-space; circle (2-D): disc (a sphere or torus in "
+                         "axisymmetry); sphere (3-D); cylinder (3-D, infinite, about `axis` through `center`); "
+                         "torus (3-D: tube of `radius` around a ring of `ring_radius` about `axis`); profile: "
+                         "chain of line segments and circular arcs (revolved about the axis in axisymmetry and "
+                         "about `axis` through `center` in 3-D).",
+                         choices=("plane", "circle", "sphere", "cylinder", "torus", "profile")),
             "point": Key("vector", REQUIRED, "A point of the plane.", "mm", when={"shape": ("plane",)}),
             "normal": Key("vector", REQUIRED, "Normal of the plane, pointing into the body.", "",
                           when={"shape": ("plane",)}),
-            "center": Key("vector", REQUIRED, "Centre at t = 0.", "mm", when={"shape": ("circle",)}),
-            "radius": Key("float", REQUIRED, "Radius.", "mm", when={"shape": ("circle",)}, **_pos()),
+            "center": Key("vector", OPTIONAL, "Centre at t = 0 (circle, sphere, torus), a point of the axis "
+                          "(cylinder), the origin of the profile's axial coordinate (3-D profile). Required for "
+                          "every shape but the 2-D profile, which refuses it.", "mm",
+                          when={"shape": ("circle", "sphere", "cylinder", "torus", "profile")}),
+            "axis": Key("vector", OPTIONAL, "Direction of the axis (3-D cylinder, torus, profile; required "
+                        "there, refused in 2-D).", "", when={"shape": ("cylinder", "torus", "profile")}),
+            "radius": Key("float", REQUIRED, "Radius (circle, sphere, cylinder); the tube radius (torus).", "mm",
+                          when={"shape": ("circle", "sphere", "cylinder", "torus")}, **_pos()),
+            "ring_radius": Key("float", REQUIRED, "Torus: distance from the axis to the centre of the tube.",
+                               "mm", when={"shape": ("torus",)}, **_pos()),
             "segments": Key("segments", REQUIRED, "Profile pieces in order: { line = [[x0, y0], [x1, y1]] } or "
                             "{ arc = [cx, cy], radius = R, from = deg, to = deg } (counter-clockwise when "
-                            "to > from).", "mm", when={"shape": ("profile",)}),
+                            "to > from). In 3-D the coordinates are (rho, a): distance from `axis` and "
+                            "coordinate along it from `center`.", "mm", when={"shape": ("profile",)}),
             "body_side": Key("str", "left", "Side of the profile (walking along it) where the body lies.",
                              when={"shape": ("profile",)}, choices=("left", "right")),
-            "path": Key("path", OPTIONAL, "Translation: { t = [...], x = [...], y = [...] } (piecewise linear; "
-                        "a missing component stays 0); absent = fixed.", "mm"),
+            "path": Key("path", OPTIONAL, "Translation: { t = [...], x = [...], y = [...] } (and z = [...] in "
+                        "3-D; piecewise linear; a missing component stays 0); absent = fixed.", "mm"),
         }),
     "contact": Table(
         "Contact pairs, one table per name: a tool against a facet group of the body (penalty, nodal rule).",
         collection=True, keys={
             "tool": Key("str", REQUIRED, "Name of a [tools.<name>] table."),
-            "group": Key("str", REQUIRED, "Gmsh physical curve name of the body's candidate facets."),
+            "group": Key("str", REQUIRED, "Gmsh physical curve (3-D: surface) name of the body's candidate "
+                         "facets."),
             "friction": Key("float", 0.0, "Coulomb coefficient mu (0: frictionless, no friction term).", "",
                             **_nonneg()),
             "law": Key("str", "quasi-coulomb", "coulomb: current p and N; quasi-coulomb: p and N frozen over an "
@@ -316,7 +366,7 @@ SCHEMA: dict[str, Table] = {
                             "displacement / position: of the node "
                             "nearest `point`; extent: largest or smallest current coordinate of a group (or "
                             "the body); field: largest or smallest value of a field over a region (or the body); "
-                            "energy: one of the energies; thickness: ln(t/t0) between two facing groups along "
+                            "energy: one of the energies; thickness (2-D only): ln(t/t0) between two facing groups along "
                             "the first (a profile, written to <name>.csv at every step end); expression: a "
                             "value computed from other outputs (its column is the output's name as written: put "
                             "the unit in the name, e.g. pressure_MPa).",
@@ -326,7 +376,9 @@ SCHEMA: dict[str, Table] = {
                          when={"quantity": ("reaction", "extent", "thickness")}),
             "opposite": Key("str", REQUIRED, "The facing group (thickness).", when={"quantity": ("thickness",)}),
             "tool": Key("str", REQUIRED, "Tool name.", when={"quantity": ("tool_force", "tool_displacement")}),
-            "component": Key("str", REQUIRED, "x or y (r or z).", choices=tuple(COMPONENTS),
+            "component": Key("str", REQUIRED, "x or y (r or z) in 2-D; x, y or z in 3-D; extent also takes "
+                             "radial: the distance from the z axis, sqrt(x^2 + y^2) (3-D; r in axisymmetry).",
+                             choices=("x", "y", "r", "z", "radial"),
                              when={"quantity": ("reaction", "tool_force", "tool_displacement", "displacement",
                                                 "position", "extent")}),
             "point": Key("vector", REQUIRED, "Reference coordinates; the nearest node is used.", "mm",
@@ -348,8 +400,10 @@ SCHEMA: dict[str, Table] = {
                               "of other one-column outputs declared before it, each in its column's unit.",
                               when={"quantity": ("expression",)}),
             "scale": Key("float", 1.0, "Factor applied to the measured value: e.g. 2 for the elongation of a "
-                         "half model, 4 for the force on a quarter model.",
-                         when={"quantity": ("reaction", "tool_force", "tool_displacement", "displacement")}),
+                         "half model, 4 for the force or the energies of a quarter model (not to the energy "
+                         "balance error, a ratio).",
+                         when={"quantity": ("reaction", "tool_force", "tool_displacement", "displacement",
+                                            "energy")}),
             "at_max_of": Key("str", OPTIONAL, "Name of another one-column output: summary.json also gets this "
                              "output's value where that one is largest (<column>_at_max_<its column>)."),
             "summary": Key("strs", ["final"], "What goes into summary.json: final, max, min (max adds "
@@ -362,7 +416,8 @@ SCHEMA: dict[str, Table] = {
         "Figures drawn from history.csv (and the profiles, final shape) at the end of the run and by "
         "`fenics-plast plot DIR`.", collection=True, discriminator="type", keys={
             "type": Key("str", "history", "history: columns against a column; profile: a thickness output "
-                        "along its group at each step end; shape: the final deformed mesh coloured by a field.",
+                        "along its group at each step end; shape (2-D only): the final deformed mesh coloured "
+                        "by a field.",
                         choices=("history", "profile", "shape")),
             "x": Key("str", REQUIRED, "Column of history.csv on the x axis.", when={"type": ("history",)}),
             "y": Key("strs", REQUIRED, "Columns on the y axis (one line each).", when={"type": ("history",)}),

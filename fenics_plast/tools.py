@@ -1,18 +1,27 @@
-"""Rigid analytic tools that translate along a prescribed path (2-D: x = r, y = z in axisymmetry,
-where every tool is implicitly revolved about the axis).  Lengths in mm.
+"""Rigid analytic tools that translate along a prescribed path.  Lengths in mm.
 
-A tool has a ``name``, a translation ``path(t, use_ufl) -> (dx, dy)`` [mm] (UFL expressions of the
-UFL scalar t when ``use_ufl``, floats otherwise; None = fixed) and
+2-D tools (x = r, y = z in axisymmetry, where every tool is implicitly revolved about the axis) and
+3-D tools (x, y, z).  A tool has a ``name``, a dimension ``dim`` (2 or 3), a translation
+``path(t, use_ufl) -> (dx, dy)`` or ``(dx, dy, dz)`` [mm] (UFL expressions of the UFL scalar t when
+``use_ufl``, floats otherwise; None = fixed; a 3-D tool reads a missing dz as 0) and
 
-* ``gap(x, t) -> (g, N)`` in UFL: x a UFL 2-vector of current positions, t a UFL scalar (e.g. the
-  solver's load ``fem.Constant``); g the signed gap [mm] (> 0 separated, < 0 penetrating) and N the
-  unit normal pointing from the tool into the body;
-* ``gap_np(x, t) -> (g (n,), N (n, 2))``: the same values in numpy (x (n, 2) or (n, 3), t a float);
-* ``translation(t, use_ufl)``: (dx, dy), a tuple of UFL scalars or a numpy (2,) array.
+* ``gap(x, t) -> (g, N)`` in UFL: x a UFL ``dim``-vector of current positions, t a UFL scalar (e.g.
+  the solver's load ``fem.Constant``); g the signed gap [mm] (> 0 separated, < 0 penetrating) and N
+  the unit normal pointing from the tool into the body;
+* ``gap_np(x, t) -> (g (n,), N (n, dim))``: the same values in numpy (x (n, dim), or (n, 3) for a
+  2-D tool, whose third column is ignored; t a float);
+* ``translation(t, use_ufl)``: (dx, dy[, dz]), a tuple of UFL scalars or a numpy (dim,) array.
 
-Shapes: :class:`Plane` (half-space), :class:`Circle` (the body outside a disc: a sphere on the
+2-D shapes: :class:`Plane` (half-space), :class:`Circle` (the body outside a disc: a sphere on the
 axis or a torus in axisymmetry) and :class:`Profile` (a chain of line segments and circular arcs,
 the body on one side), which covers flat dies, punches, die shoulders and rings.
+
+3-D shapes: :class:`Plane` (given 3-vectors), :class:`Sphere`, :class:`Cylinder` (infinite),
+:class:`Torus` (the body outside each) and :class:`RevolvedProfile` (a :class:`Profile` drawn in the
+(rho, a) half-plane of an axis and revolved about it: g and the (rho, a) normal are the profile's,
+the normal turned back to 3-D).  Where the normal is not defined (the centre of a sphere, the axis of
+a cylinder, torus or revolved profile) it is guarded with _TINY as in the 2-D profile: a finite
+vector, not 0/0.
 
 Penalty helpers: :func:`default_penalty` (eps = factor E / h) and :func:`contact_length_scale`
 (h: the mean depth of the cells along a facet group).
@@ -36,25 +45,32 @@ def default_penalty(E, h, factor=PENALTY_FACTOR):
 
 
 def contact_length_scale(mesh, facet_tags, tag):
-    """Mean depth [mm] (cell area / facet length) of the cells next to the facets tagged ``tag``
-    (2-D affine cells; owned facets of all ranks; collective).  ValueError if no facet has the tag."""
+    """Mean depth [mm] of the cells next to the facets tagged ``tag``: cell area / facet length in
+    2-D (affine cells), cell volume / facet area in 3-D (hexahedra: 2x2x2 and 2x2 Gauss on the
+    trilinear map; tetrahedra exact).  Owned facets of all ranks; collective.  ValueError if no
+    facet has the tag."""
     import basix
     from mpi4py import MPI
     tdim, fdim = mesh.topology.dim, mesh.topology.dim - 1
     for a, b in ((fdim, tdim), (tdim, fdim)):
         mesh.topology.create_connectivity(a, b)
     f2c, c2f = mesh.topology.connectivity(fdim, tdim), mesh.topology.connectivity(tdim, fdim)
-    ref_facets = basix.topology(getattr(basix.CellType, mesh.topology.cell_type.name))[fdim]
-    order = [0, 1, 3, 2] if mesh.topology.cell_type.name == "quadrilateral" else [0, 1, 2]
+    cell_name = mesh.topology.cell_type.name
+    ref_facets = basix.topology(getattr(basix.CellType, cell_name))[fdim]
+    order = [0, 1, 3, 2] if cell_name == "quadrilateral" else [0, 1, 2]
     facets = facet_tags.find(tag)
     total, count = 0.0, 0
     for f in facets[facets < mesh.topology.index_map(fdim).size_local]:
         for c in f2c.links(f):
-            xy = mesh.geometry.x[mesh.geometry.dofmap.links(c), :2]
             v = ref_facets[int(np.flatnonzero(c2f.links(c) == f)[0])]
-            p, q = xy[order], np.roll(xy[order], -1, axis=0)
-            area = 0.5 * abs(float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1])))
-            total += area / float(np.linalg.norm(xy[v[1]] - xy[v[0]]))
+            if tdim == 3:
+                xyz = mesh.geometry.x[mesh.geometry.dofmap.links(c), :3]
+                total += _cell_volume(xyz) / _facet_area(xyz[v])
+            else:
+                xy = mesh.geometry.x[mesh.geometry.dofmap.links(c), :2]
+                p, q = xy[order], np.roll(xy[order], -1, axis=0)
+                area = 0.5 * abs(float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1])))
+                total += area / float(np.linalg.norm(xy[v[1]] - xy[v[0]]))
             count += 1
     total, count = mesh.comm.allreduce(total, op=MPI.SUM), mesh.comm.allreduce(count, op=MPI.SUM)
     if count == 0:
@@ -62,11 +78,47 @@ def contact_length_scale(mesh, facet_tags, tag):
     return total / count
 
 
-def piecewise_path(knots, dx=None, dy=None):
-    """A piecewise-linear ``path(t, use_ufl)`` through (knots [t], dx [mm], dy [mm]) (None = 0),
-    constant outside the knots."""
+_GAUSS2 = (0.5 - 0.5 / math.sqrt(3.0), 0.5 + 0.5 / math.sqrt(3.0))   # 2-point Gauss on [0, 1]
+
+
+def _cell_volume(xyz):
+    """Volume [mm^3] of a first-order tetrahedron (4, 3) or hexahedron (8, 3; basix vertex order
+    v = i + 2 j + 4 k at reference (i, j, k)): exact, 2x2x2 Gauss of det J."""
+    if len(xyz) == 4:
+        return abs(float(np.linalg.det(xyz[1:] - xyz[0]))) / 6.0
+    c = xyz.reshape(2, 2, 2, 3)                  # [k, j, i, :]
+    vol = 0.0
+    for r in _GAUSS2:
+        for s in _GAUSS2:
+            for t in _GAUSS2:
+                w = [(1 - r, r), (1 - s, s), (1 - t, t)]
+                d_r = sum(w[1][j] * w[2][k] * (c[k, j, 1] - c[k, j, 0]) for j in (0, 1) for k in (0, 1))
+                d_s = sum(w[0][i] * w[2][k] * (c[k, 1, i] - c[k, 0, i]) for i in (0, 1) for k in (0, 1))
+                d_t = sum(w[0][i] * w[1][j] * (c[1, j, i] - c[0, j, i]) for i in (0, 1) for j in (0, 1))
+                vol += 0.125 * abs(float(np.linalg.det(np.array([d_r, d_s, d_t]))))
+    return vol
+
+
+def _facet_area(xyz):
+    """Area [mm^2] of a triangle (3, 3) or a bilinear quadrilateral (4, 3; basix order v = i + 2 j):
+    exact, 2x2 Gauss of |dx/dr x dx/ds|."""
+    if len(xyz) == 3:
+        return 0.5 * float(np.linalg.norm(np.cross(xyz[1] - xyz[0], xyz[2] - xyz[0])))
+    area = 0.0
+    for r in _GAUSS2:
+        for s in _GAUSS2:
+            d_r = (1 - s) * (xyz[1] - xyz[0]) + s * (xyz[3] - xyz[2])
+            d_s = (1 - r) * (xyz[2] - xyz[0]) + r * (xyz[3] - xyz[1])
+            area += 0.25 * float(np.linalg.norm(np.cross(d_r, d_s)))
+    return area
+
+
+def piecewise_path(knots, dx=None, dy=None, dz=None):
+    """A piecewise-linear ``path(t, use_ufl)`` through (knots [t], dx, dy[, dz] [mm]) (None = 0),
+    constant outside the knots: (dx, dy) without ``dz`` (2-D tools), (dx, dy, dz) with it."""
     from fenics_plast.expressions import piecewise_linear
-    comps = [[0.0] * len(knots) if v is None else list(v) for v in (dx, dy)]
+    given = (dx, dy) if dz is None else (dx, dy, dz)
+    comps = [[0.0] * len(knots) if v is None else list(v) for v in given]
     if any(len(v) != len(knots) for v in comps):
         raise ValueError("a path needs as many values as knots")
 
@@ -75,10 +127,28 @@ def piecewise_path(knots, dx=None, dy=None):
     return path
 
 
+def _vector(value, what, dims=(2, 3)):
+    """``value`` as a float array of one of the lengths ``dims`` (ValueError otherwise)."""
+    a = np.asarray(value, dtype=float)
+    if a.ndim != 1 or a.shape[0] not in dims or not np.all(np.isfinite(a)):
+        raise ValueError(f"{what} must be a finite {' or '.join(map(str, dims))}-vector, got {value}")
+    return a
+
+
+def _unit(value, what, dims=(2, 3)):
+    """``value`` normalised to unit length (ValueError for a zero vector)."""
+    a = _vector(value, what, dims)
+    n = float(np.linalg.norm(a))
+    if not n > 0:
+        raise ValueError(f"{what} must be non-zero, got {value}")
+    return a / n
+
+
 class Tool:
-    """A rigid tool translating along ``path`` (see the module docstring)."""
+    """A rigid tool translating along ``path`` (see the module docstring); ``dim`` 2 or 3."""
 
     name = "tool"
+    dim = 2
 
     def __init__(self, name=None, path=None):
         if name:
@@ -86,12 +156,27 @@ class Tool:
         self.path = path
 
     def translation(self, t, use_ufl=True):
-        """(dx, dy) [mm] at t: a tuple of UFL scalars, or a numpy (2,) array."""
+        """(dx, dy) [mm] at t (3-D tools: (dx, dy, dz)): a tuple of UFL scalars, or a numpy (dim,)
+        array."""
+        if self.dim == 3:
+            return self._translation_3d(t, use_ufl)
         if self.path is None:
             z = ufl.as_ufl(0.0) if use_ufl else 0.0
             return (z, z) if use_ufl else np.zeros(2)
         d = self.path(t, use_ufl)
         return (ufl.as_ufl(d[0]), ufl.as_ufl(d[1])) if use_ufl else np.array([float(d[0]), float(d[1])])
+
+    def _translation_3d(self, t, use_ufl):
+        d = (0.0, 0.0, 0.0) if self.path is None else tuple(self.path(t, use_ufl))
+        d = d + (0.0,) * (3 - len(d))
+        if use_ufl:
+            return tuple(ufl.as_ufl(c) for c in d[:3])
+        return np.array([float(c) for c in d[:3]])
+
+    def _moved(self, point, t):
+        """UFL vector: the reference ``point`` (dim,) [mm] translated to time t."""
+        d = self.translation(t)
+        return ufl.as_vector([float(point[i]) + d[i] for i in range(len(point))])
 
     def gap(self, x, t):
         raise NotImplementedError
@@ -102,7 +187,7 @@ class Tool:
 
 class Plane(Tool):
     """Half-space: the plane through ``point`` [mm] (+ translation) with ``normal`` (any length,
-    normalised) pointing into the body; g = (x - p) . N."""
+    normalised) pointing into the body; g = (x - p) . N.  2-D with 2-vectors, 3-D with 3-vectors."""
 
     name = "plane"
 
@@ -110,11 +195,17 @@ class Plane(Tool):
         super().__init__(name, path)
         self.point = np.asarray(point, dtype=float)
         n = np.asarray(normal, dtype=float)
-        if n.shape != (2,) or not np.linalg.norm(n) > 0:
-            raise ValueError(f"plane normal must be a non-zero 2-vector, got {normal}")
+        if n.shape not in ((2,), (3,)) or not np.linalg.norm(n) > 0:
+            raise ValueError(f"plane normal must be a non-zero 2- or 3-vector, got {normal}")
+        if self.point.shape != n.shape:
+            raise ValueError(f"plane point {point} and normal {normal} must have the same dimension")
+        self.dim = n.shape[0]
         self.normal = n / np.linalg.norm(n)
 
     def gap(self, x, t):
+        if self.dim == 3:
+            N = ufl.as_vector([float(c) for c in self.normal])
+            return ufl.dot(x - self._moved(self.point, t), N), N
         d = self.translation(t)
         p = ufl.as_vector([self.point[0] + d[0], self.point[1] + d[1]])
         N = ufl.as_vector([float(self.normal[0]), float(self.normal[1])])
@@ -122,7 +213,7 @@ class Plane(Tool):
 
     def gap_np(self, x, t):
         p = self.point + self.translation(t, use_ufl=False)
-        g = (np.asarray(x)[:, :2] - p) @ self.normal
+        g = (np.asarray(x)[:, :self.dim] - p) @ self.normal
         return g, np.tile(self.normal, (len(g), 1))
 
 
@@ -314,5 +405,156 @@ class Profile(Tool):
         return v[0], np.stack([v[1], v[2]], axis=1)
 
 
-__all__ = ["Tool", "Plane", "Circle", "Profile", "PENALTY_FACTOR", "default_penalty",
+# ----------------------------------------------------------------------------------------------
+# 3-D tools
+
+
+class Sphere(Tool):
+    """Ball of ``radius`` [mm] centred at ``center`` [mm] (a 3-vector, + translation); the body lies
+    outside: g = |x - c| - R, N = (x - c) / |x - c| (guarded: N = 0 at the centre itself)."""
+
+    name = "sphere"
+    dim = 3
+
+    def __init__(self, center, radius, path=None, name=None):
+        super().__init__(name, path)
+        self.center0 = _vector(center, "sphere center", (3,))
+        self.radius = float(radius)
+        if not self.radius > 0:
+            raise ValueError(f"sphere radius must be > 0, got {radius}")
+
+    def gap(self, x, t):
+        d = x - self._moved(self.center0, t)
+        dist = ufl.sqrt(ufl.dot(d, d) + _TINY)
+        return dist - self.radius, d / dist
+
+    def gap_np(self, x, t):
+        d = np.asarray(x, dtype=float)[:, :3] - (self.center0 + self.translation(t, use_ufl=False))
+        dist = np.sqrt(np.einsum("ij,ij->i", d, d) + _TINY)
+        return dist - self.radius, d / dist[:, None]
+
+
+class _AxisTool(Tool):
+    """A tool symmetric about the axis through ``center`` [mm] with direction ``axis`` (normalised):
+    the axial coordinate a = (x - c) . e_a and the radial vector r = (x - c) - a e_a of a point,
+    rho = |r| (guarded: sqrt(r . r + _TINY), so e_rho = r / rho = 0 on the axis)."""
+
+    dim = 3
+
+    def __init__(self, center, axis, path=None, name=None):
+        super().__init__(name, path)
+        self.center0 = _vector(center, f"{self.name} center", (3,))
+        self.axis = _unit(axis, f"{self.name} axis", (3,))
+
+    def _axial_ufl(self, x, t):
+        """UFL (a, r vector, rho) of the positions x at time t."""
+        y = x - self._moved(self.center0, t)
+        e = ufl.as_vector([float(c) for c in self.axis])
+        a = ufl.dot(y, e)
+        r = y - a * e
+        return a, r, ufl.sqrt(ufl.dot(r, r) + _TINY)
+
+    def _axial_np(self, x, t):
+        """numpy (a (n,), r (n, 3), rho (n,)) of the positions x (n, 3) at time t."""
+        y = np.asarray(x, dtype=float)[:, :3] - (self.center0 + self.translation(t, use_ufl=False))
+        a = y @ self.axis
+        r = y - a[:, None] * self.axis
+        return a, r, np.sqrt(np.einsum("ij,ij->i", r, r) + _TINY)
+
+
+class Cylinder(_AxisTool):
+    """Infinite circular cylinder of ``radius`` [mm] about the axis through ``center`` [mm] (+
+    translation) with direction ``axis``; the body lies outside: g = rho - R, N = e_rho."""
+
+    name = "cylinder"
+
+    def __init__(self, center, axis, radius, path=None, name=None):
+        super().__init__(center, axis, path=path, name=name)
+        self.radius = float(radius)
+        if not self.radius > 0:
+            raise ValueError(f"cylinder radius must be > 0, got {radius}")
+
+    def gap(self, x, t):
+        _, r, rho = self._axial_ufl(x, t)
+        return rho - self.radius, r / rho
+
+    def gap_np(self, x, t):
+        _, r, rho = self._axial_np(x, t)
+        return rho - self.radius, r / rho[:, None]
+
+
+class Torus(_AxisTool):
+    """Torus about the axis through ``center`` [mm] (+ translation) with direction ``axis``: a tube of
+    ``radius`` r [mm] whose centre circle has ``ring_radius`` R [mm] in the plane a = 0; the body lies
+    outside the tube.  The distance to the centre circle is d = sqrt((rho - R)^2 + a^2): g = d - r,
+    N = ((rho - R) e_rho + a e_a) / d (the guarded e_rho is 0 on the axis, where g is still exact
+    and N is a e_a / d; on the centre circle N is guarded with _TINY)."""
+
+    name = "torus"
+
+    def __init__(self, center, axis, ring_radius, radius, path=None, name=None):
+        super().__init__(center, axis, path=path, name=name)
+        self.ring_radius, self.radius = float(ring_radius), float(radius)
+        if not (self.ring_radius > 0 and self.radius > 0):
+            raise ValueError(f"torus ring_radius and radius must be > 0, got {ring_radius}, {radius}")
+
+    def gap(self, x, t):
+        a, r, rho = self._axial_ufl(x, t)
+        e = ufl.as_vector([float(c) for c in self.axis])
+        dist = ufl.sqrt((rho - self.ring_radius) ** 2 + a * a + _TINY)
+        return dist - self.radius, ((rho - self.ring_radius) / dist) * (r / rho) + (a / dist) * e
+
+    def gap_np(self, x, t):
+        a, r, rho = self._axial_np(x, t)
+        dist = np.sqrt((rho - self.ring_radius) ** 2 + a * a + _TINY)
+        return (dist - self.radius, ((rho - self.ring_radius) / dist / rho)[:, None] * r
+                + (a / dist)[:, None] * self.axis)
+
+
+class RevolvedProfile(_AxisTool):
+    """A :class:`Profile` (``segments`` and ``body_side`` as there) drawn in the (rho, a) half-plane
+    of the axis through ``center`` [mm] with direction ``axis`` (rho >= 0 the distance from the axis,
+    a the coordinate along it from ``center``) and revolved about that axis; it moves with
+    ``path`` (3-D).  g of a point is the profile's at its (rho, a) and N = N_rho e_rho + N_a e_a.
+    On the axis e_rho is 0 (guarded), so N there is N_a e_a.
+
+    Example, a flat-ended punch of radius 10 with a 2 mm edge radius, its face at a = 0, pressing
+    along -axis (the body below)::
+
+        RevolvedProfile([("line", (0, 0), (8, 0)), ("arc", (8, 2), 2, 270, 360),
+                         ("line", (10, 2), (10, 30))], center=(0, 0, 0), axis=(0, 0, 1),
+                        body_side="right")
+    """
+
+    name = "revolved_profile"
+
+    def __init__(self, segments, center, axis, body_side="left", path=None, name=None):
+        super().__init__(center, axis, path=path, name=name)
+        self.profile = Profile(segments, body_side=body_side)
+        size = max(1.0, *(float(np.abs(q).max()) for p in self.profile.pieces for q in p["P"]))
+        for k, p in enumerate(self.profile.pieces):
+            if p["kind"] == "line":
+                lowest = min(p["P"][0][0], p["P"][1][0])
+            else:   # the arc's points: sample its sweep
+                a0, a1 = (float(v) for v in segments[k][3:5])
+                ang = np.radians(np.linspace(a0, a1, 361))
+                lowest = float((p["c"][0] + p["R"] * np.cos(ang)).min())
+            if lowest < -1e-9 * size:
+                raise ValueError(f"revolved profile piece {k} reaches rho = {lowest:.6g} < 0: draw the "
+                                 f"profile in the half-plane rho >= 0")
+
+    def gap(self, x, t):
+        a, r, rho = self._axial_ufl(x, t)
+        v = self.profile._gap(_Ops(True), [rho, a])
+        e = ufl.as_vector([float(c) for c in self.axis])
+        return v[0], v[1] * (r / rho) + v[2] * e
+
+    def gap_np(self, x, t):
+        a, r, rho = self._axial_np(x, t)
+        v = self.profile._gap(_Ops(False), [rho, a])
+        return v[0], v[1][:, None] * (r / rho[:, None]) + v[2][:, None] * self.axis
+
+
+__all__ = ["Tool", "Plane", "Circle", "Profile", "Sphere", "Cylinder", "Torus", "RevolvedProfile",
+           "PENALTY_FACTOR", "default_penalty",
            "contact_length_scale", "piecewise_path"]

@@ -13,7 +13,8 @@ from typing import Any
 
 from fenics_plast.errors import SceneError
 from fenics_plast.expressions import ExpressionError, parse_expression, parse_value
-from fenics_plast.schema import COMPONENTS, OPTIONAL, REQUIRED, SCHEMA, SECTIONS, Key, Table, _VALUE_DOC, _num
+from fenics_plast.schema import (OPTIONAL, REQUIRED, SCHEMA, SECTIONS, Key, Table, _VALUE_DOC, _num, component_names,
+                                  vector_size)
 
 __all__ = ["Section", "validate_tables"]
 
@@ -84,10 +85,10 @@ def _fmt(v) -> str:
 
 _TYPE_TEXT = {"str": "a string", "int": "an integer", "float": "a number", "bool": "true or false",
               "floats": "a list of numbers", "strs": "a list of strings (or one string)",
-              "vector": "a list of 2 numbers [x, y]", "value": _VALUE_DOC,
+              "vector": "a list of 2 numbers [x, y] (3 in 3-D: [x, y, z])", "value": _VALUE_DOC,
               "values": "a value or a list of values, each " + _VALUE_DOC,
               "segments": "a list of inline tables { line = ... } or { arc = ..., radius = ..., from = ..., to = ... }",
-              "path": "an inline table { t = [...], x = [...], y = [...] }"}
+              "path": "an inline table { t = [...], x = [...], y = [...] } (and z = [...] in 3-D)"}
 
 
 def _is_number(x) -> bool:
@@ -133,7 +134,7 @@ class _Validator:
             if not bad:
                 v = tuple(v)
         elif t == "vector":
-            bad = not isinstance(v, list) or len(v) != 2 or not all(_is_number(x) for x in v)
+            bad = not isinstance(v, list) or len(v) not in (2, 3) or not all(_is_number(x) for x in v)
             if not bad:
                 v = tuple(self.finite(dotted, x) for x in v)
         elif t in ("value", "values"):
@@ -209,10 +210,10 @@ class _Validator:
         return tuple(out)
 
     def path(self, dotted: str, v):
-        if not isinstance(v, dict) or "t" not in v or not (set(v) - {"t"}) or not set(v) <= {"t", "x", "y"}:
+        if not isinstance(v, dict) or "t" not in v or not (set(v) - {"t"}) or not set(v) <= {"t", "x", "y", "z"}:
             self.fail(f"{dotted} = {_fmt(v)} has the wrong type: must be {_TYPE_TEXT['path']}")
         out = {}
-        for comp in ("x", "y"):
+        for comp in ("x", "y", "z"):
             if comp in v:
                 try:
                     out[comp] = parse_value({"t": v["t"], "value": v[comp]}, f"{dotted}.{comp}")
@@ -339,6 +340,9 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
         v.fail(f"scene.name = {_fmt(name)}: must be a non-empty name without / or \\ (it names the "
                f"default output directory results/<name>)")
     ana, explicit = t["analysis"], v.analysis == "explicit"
+    geometry = t["mesh"].geometry
+    dim = vector_size(geometry)
+    _geometry_checks(t, v, geometry)
     if not explicit and ana.min_increment > ana.max_increment:
         v.fail(f"analysis.min_increment = {_fmt(ana.min_increment)} is out of range: must not exceed "
                f"analysis.max_increment = {_fmt(ana.max_increment)}")
@@ -389,11 +393,12 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
             v.fail(f"{d}.type = 'axis' needs mesh.geometry = 'axisymmetric'")
         comps = b.get("components")
         if comps is not None:
+            names = component_names(geometry)
             for c in comps:
-                if c not in COMPONENTS:
-                    v.fail(f"{d}.components = {list(comps)}: {c!r} is not a component: must be one of "
-                           f"{', '.join(COMPONENTS)}")
-            if len(set(COMPONENTS[c] for c in comps)) != len(comps):
+                if c not in names:
+                    v.fail(f"{d}.components = {list(comps)}: {c!r} is not a component with mesh.geometry = "
+                           f"{geometry!r}: must be one of {', '.join(names)}")
+            if len(set(names[c] for c in comps)) != len(comps):
                 v.fail(f"{d}.components = {list(comps)} names a component twice")
             val = b.get("value")
             if isinstance(val, tuple) and len(val) != len(comps):
@@ -402,8 +407,9 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
             v.fail(f"{d}.value must be one value (the pressure)")
     for n, iv in t["initial_velocity"].items():
         val = iv.value
-        if not isinstance(val, tuple) or len(val) != 2:
-            v.fail(f"initial_velocity.{n}.value must be a list of 2 values [vx, vy] [m/s]")
+        if not isinstance(val, tuple) or len(val) != dim:
+            v.fail(f"initial_velocity.{n}.value must be a list of {dim} values "
+                   f"[{', '.join('v' + c for c in 'xyz'[:dim])}] [m/s] with mesh.geometry = {geometry!r}")
         for i, x in enumerate(val):
             if x.depends_on_time:
                 v.fail(f"initial_velocity.{n}.value[{i}] may depend on x, y, z only, not on t")
@@ -454,3 +460,65 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
         v.fail("steps: two steps have the same end")
 
 
+
+
+def _geometry_checks(t: dict[str, Any], v: _Validator, geometry: str):
+    """What depends on mesh.geometry: vectors of 2 entries in 2-D and 3 in 3-D, the tool shapes of each,
+    the output components, and what exists in 2-D only (thickness profiles, shape plots, axis)."""
+    dim, three_d = vector_size(geometry), geometry == "3d"
+    where = f"with mesh.geometry = {geometry!r}"
+
+    def vector(dotted, x):
+        if x is not None and len(x) != dim:
+            v.fail(f"{dotted} = {_fmt(list(x))} has {len(x)} entries: must have {dim} "
+                   f"([{', '.join('xyz'[:dim])}]) {where}")
+    for n, b in t["boundary"].items():
+        if b.type == "axis" and three_d:
+            v.fail(f"boundary.{n}.type = 'axis' is for axisymmetric meshes only: in 3-D use type = 'symmetry' "
+                   f"on the planes of a sector model")
+    for n, tool in t["tools"].items():
+        d = f"tools.{n}"
+        for k in ("point", "normal", "center", "axis"):
+            vector(f"{d}.{k}", tool.get(k))
+        for k in ("normal", "axis"):
+            if tool.get(k) is not None and not any(tool.get(k)):
+                v.fail(f"{d}.{k} = {_fmt(list(tool.get(k)))} is not allowed: must not be zero")
+        shape = tool.shape
+        if shape == "circle" and three_d:
+            v.fail(f"{d}.shape = 'circle' is a 2-D tool: in 3-D use 'sphere', 'cylinder' or 'torus'")
+        if shape in ("sphere", "cylinder", "torus") and not three_d:
+            v.fail(f"{d}.shape = {shape!r} is a 3-D tool (mesh.geometry = '3d'): in 2-D use 'circle'")
+        needs = {"circle": ("center",), "sphere": ("center",), "cylinder": ("center", "axis"),
+                 "torus": ("center", "axis"), "profile": ("center", "axis") if three_d else ()}.get(shape, ())
+        for k in needs:
+            if tool.get(k) is None:
+                v.fail(f"{d}.{k} is missing: required for shape = {shape!r} {where} [{'mm' if k == 'center' else ''}]"
+                       .replace(" []", ""))
+        if shape == "profile" and not three_d:
+            for k in ("center", "axis"):
+                if tool.get(k) is not None:
+                    v.fail(f"{d}.{k} is for 3-D profiles only: a 2-D profile is drawn in (x, y) or (r, z)")
+        if tool.path is not None and "z" in tool.path and not three_d:
+            v.fail(f"{d}.path.z: a 2-D tool moves in x and y only")
+    names = component_names(geometry)
+    for n, o in t["outputs"].items():
+        d = f"outputs.{n}"
+        if o.quantity in ("displacement", "position"):
+            vector(f"{d}.point", o.point)
+        comp = o.get("component")
+        if comp == "radial":
+            if o.quantity != "extent":
+                v.fail(f"{d}.component = 'radial' is for extent outputs only")
+            if geometry == "plane_strain":
+                v.fail(f"{d}.component = 'radial' (distance from the z axis) needs mesh.geometry = '3d' or "
+                       f"'axisymmetric'")
+        elif comp is not None and comp not in names:
+            v.fail(f"{d}.component = {comp!r} is not a component {where}: must be one of "
+                   f"{', '.join(names)}" + (" (or radial, the distance from the z axis)" if three_d else ""))
+        if o.quantity == "thickness" and three_d:
+            v.fail(f"{d}.quantity = 'thickness' is a 2-D profile: not available {where} (use position or "
+                   f"extent outputs)")
+    for n, p in t["plots"].items():
+        if p.type == "shape" and three_d:
+            v.fail(f"plots.{n}.type = 'shape' draws 2-D meshes only: not available {where} (open fields.xdmf "
+                   f"in ParaView)")

@@ -32,6 +32,7 @@ PAGE = Path("docs") / "STUDIES.md"
 
 TAYLOR = "demos/taylor_bar.toml"
 ACCURATE = "demos/taylor_bar_accurate.toml"
+TAYLOR_3D = "demos/taylor_bar_3d.toml"
 PUNCH = "demos/punch_stretching.toml"
 
 #: name -> (scene file, study arguments). The order is the order they run in.
@@ -45,6 +46,8 @@ STUDIES: dict[str, tuple[str, list[str]]] = {
     "taylor_graded": (ACCURATE, ["--vary", "mesh.parameters.axial_size_ratio=1,4,16", "--vary",
                                  "mesh.parameters.radial_size_ratio=1,4", "--vary", "analysis.stable_step=size,element"]),
     "taylor_accurate": (ACCURATE, ["--vary", "mesh.refine=1,2,4", "--vary", "analysis.dt_safety=0.8,1.0"]),
+    "taylor_3d": (TAYLOR_3D, ["--set", "mesh.parameters.cells_axial=18", "--set", "mesh.parameters.axial_size_ratio=16",
+                              "--set", "mesh.parameters.radial_size_ratio=4", "--vary", "mesh.refine=1,2"]),
     "punch_mesh": (PUNCH, ["--vary", "mesh.refine=1,2,3,4"]),
     "punch_increment": (PUNCH, ["--vary", "analysis.max_increment=0.05,0.025,0.0125,0.00625"]),
     "punch_penalty": (PUNCH, ["--vary", "contact.*.penalty=2070,20700,207000"]),

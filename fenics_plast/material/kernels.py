@@ -24,6 +24,8 @@ Isochoric variant (``ISOCHORIC``, Simo 1992): logarithmic elastic strain, expone
     ``psi = 1/2 lmbda (tr eps)^2 + mu eps:eps``, ``tau = lmbda tr(eps) I + 2 mu eps``
     plastic corrector: ``eps = eps_tr - dgamma n``  <=>  ``binv = exp(2 dgamma n) bt``
     (coaxial), exactly volume preserving since tr n = 0.
+    Computed in the eigenbasis of bt (the definition); full 3-D states without tangent take the same
+    functions of bt as series in dev(bt) instead (``_isochoric_series``, no eigenvectors).
 
 Both: von Mises yield on the Kirchhoff stress, ``f = q - sigma_y(eps_p)``,
 ``q = sqrt(3/2 s:s)``, ``s = dev tau``, associative flow (5), radial return
@@ -472,14 +474,154 @@ def _spectral(Q, v0, v1, v2, out, q):
             out[q, j, i] = v
 
 
+# --- Explicit full 3-D states without eigenvectors -------------------------------------------------
+# The trial elastic strain of a metal is small: bt = c (I + Z), c = tr(bt)/3, with Z = dev(bt)/c
+# traceless and of spectral radius rho(Z) ~ 2 |dev eps_e| < 2e-2 (bounded by the yield stress).
+# Every tensor function of the update is then a power series in Z, and Cayley-Hamilton,
+# Z^3 = J2 Z + J3 I (J2 = tr(Z^2)/2, J3 = det Z = tr(Z^3)/3), folds it onto f0 I + f1 Z + f2 Z^2
+# with scalar coefficients: no eigenvectors, no divided differences at repeated eigenvalues.
+SERIES_RHO = 0.03  # the largest rho(Z) admitted
+# rho(Z)^2 <= 4/3 J2 for traceless symmetric Z, so J2 <= 3/4 SERIES_RHO^2 admits only rho(Z) <= SERIES_RHO
+SERIES_J2_MAX = 0.75 * SERIES_RHO ** 2
+# terms of ln(1 + z) = z - z^2/2 + ...: the first left out, rho^13 / 13 < 1e-19 rho at rho = 0.03
+LOG_TERMS = 12
+# terms of exp(w), rho(w) <= 1.05 rho(Z) (w = -2 r dev eps): the first left out, w^9 / 9! < 1e-17 w
+EXP_TERMS = 8
+
+
+@_njit
+def _sym_square(x00, x01, x02, x11, x12, x22):
+    """X^2 of a symmetric X, both as upper triangles (00, 01, 02, 11, 12, 22)."""
+    return (x00 * x00 + x01 * x01 + x02 * x02, x00 * x01 + x01 * x11 + x02 * x12,
+            x00 * x02 + x01 * x12 + x02 * x22, x01 * x01 + x11 * x11 + x12 * x12,
+            x01 * x02 + x11 * x12 + x12 * x22, x02 * x02 + x12 * x12 + x22 * x22)
+
+
+@_njit
+def _log1p_traceless(J2, J3):
+    """(l0, l1, l2) with ln(I + Z) = l0 I + l1 Z + l2 Z^2, for Z symmetric, traceless, with invariants
+    J2 = tr(Z^2)/2 and J3 = det Z, rho(Z) <= SERIES_RHO: sum of (-1)^(k+1) Z^k / k, k <= LOG_TERMS,
+    each power Z^k = al I + be Z + ga Z^2 from the last by Cayley-Hamilton:
+    Z^(k+1) = ga J3 I + (al + ga J2) Z + be Z^2."""
+    al, be, ga = 0.0, 1.0, 0.0  # Z^1
+    l0, l1, l2 = 0.0, 1.0, 0.0
+    for k in range(2, LOG_TERMS + 1):
+        al, be, ga = ga * J3, al + ga * J2, be
+        w = (1.0 if k % 2 == 1 else -1.0) / k
+        l0 += w * al
+        l1 += w * be
+        l2 += w * ga
+    return l0, l1, l2
+
+
+@_njit
+def _exp_traceless(J2, J3):
+    """(e0, e1, e2) with exp(W) = e0 I + e1 W + e2 W^2, for W symmetric, traceless, with invariants
+    J2 = tr(W^2)/2 and J3 = det W, rho(W) <= 1.05 SERIES_RHO: sum of W^k / k!, k <= EXP_TERMS, the
+    powers as in :func:`_log1p_traceless`."""
+    al, be, ga = 0.0, 1.0, 0.0  # W^1
+    e0, e1, e2 = 1.0, 1.0, 0.0
+    w = 1.0
+    for k in range(2, EXP_TERMS + 1):
+        al, be, ga = ga * J3, al + ga * J2, be
+        w /= k
+        e0 += w * al
+        e1 += w * be
+        e2 += w * ga
+    return e0, e1, e2
+
+
+@_njit
+def _isochoric_series(bt00, bt01, bt02, bt11, bt12, bt22, eps_n, T_n, lmbda, mu, law, hp, tol, dt, tau, Bout,
+                      eqps, T_out, q):
+    """Isochoric update of point q (no tangent) from its trial bt (upper triangle) without eigenvectors.
+
+    The same equations as the spectral path of :func:`_isochoric_points`, which is the definition;
+    the two agree to round-off (tests/test_isochoric_series.py). With c = tr(bt)/3, Z = dev(bt)/c:
+        ``eps_tr = -1/2 ln bt = -1/2 (ln c I + ln(I + Z))``,  ``theta = tr eps_tr``,  ``D = dev eps_tr``
+        ``tau = kappa theta I + r 2 mu D``                 (r: radial-return factor, n = 3/2 s/q)
+        ``eps = eps_tr - dgamma n = theta/3 I + r D``  =>  ``binv = c exp(t/3) exp(-2 r D)``,
+        ``t = tr ln(I + Z) = -2 theta - 3 ln c``  (``exp(-2 theta/3) = c exp(t/3)``)
+    Returns -1 (nothing written; the caller takes the spectral path) when rho(Z) may exceed
+    SERIES_RHO, else 1 if the point yielded, 0 if not.
+    """
+    c = (bt00 + bt11 + bt22) / 3.0
+    ic = 1.0 / c
+    z00, z11, z22 = (bt00 - c) * ic, (bt11 - c) * ic, (bt22 - c) * ic
+    z01, z02, z12 = bt01 * ic, bt02 * ic, bt12 * ic
+    y00, y01, y02, y11, y12, y22 = _sym_square(z00, z01, z02, z11, z12, z22)  # Z^2
+    J2 = 0.5 * (y00 + y11 + y22)
+    if not J2 <= SERIES_J2_MAX:  # (NaN too: the spectral path's behaviour)
+        return -1
+    J3 = (z00 * y00 + z11 * y11 + z22 * y22 + 2.0 * (z01 * y01 + z02 * y02 + z12 * y12)) / 3.0  # tr(Z^3)/3
+    l0, l1, l2 = _log1p_traceless(J2, J3)
+    # eps_tr = -1/2 (ln c I + l0 I + l1 Z + l2 Z^2);  tr Z = 0, tr Z^2 = 2 J2, so tr ln(I + Z) = t
+    t = 3.0 * l0 + 2.0 * l2 * J2
+    theta = -0.5 * (3.0 * _ln_stretch(c) + t)
+    h1, h2 = -0.5 * l1, -0.5 * l2
+    y_mean = 2.0 * J2 / 3.0
+    d00, d11, d22 = h1 * z00 + h2 * (y00 - y_mean), h1 * z11 + h2 * (y11 - y_mean), h1 * z22 + h2 * (y22 - y_mean)
+    d01, d02, d12 = h1 * z01 + h2 * y01, h1 * z02 + h2 * y02, h1 * z12 + h2 * y12  # D = dev eps_tr
+    p = (lmbda + 2.0 * mu / 3.0) * theta
+    dd = d00 * d00 + d11 * d11 + d22 * d22 + 2.0 * (d01 * d01 + d02 * d02 + d12 * d12)  # D:D
+    q_tr = 2.0 * mu * math.sqrt(1.5 * dd)  # s_tr = 2 mu D
+    if law == JOHNSON_COOK:
+        dg, rr_factor, c_mod, T_q = _return_map_jc(q_tr, eps_n[q], T_n[q], dt, mu, hp, tol)
+        T_out[q] = T_q
+    else:
+        dg, rr_factor, c_mod = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
+    eqps[q] = eps_n[q] + dg
+    fac = 1.5 * dg / q_tr if dg > 0.0 else 0.0  # dg n = fac s_tr
+    r2mu = 2.0 * mu * (1.0 - 2.0 * mu * fac)  # r 2 mu
+    tau[q, 0, 0], tau[q, 1, 1], tau[q, 2, 2] = p + r2mu * d00, p + r2mu * d11, p + r2mu * d22
+    tau[q, 0, 1] = tau[q, 1, 0] = r2mu * d01
+    tau[q, 0, 2] = tau[q, 2, 0] = r2mu * d02
+    tau[q, 1, 2] = tau[q, 2, 1] = r2mu * d12
+    if dg > 0.0:
+        # exponential map: binv = exp(-2 theta/3) exp(W), W = -2 r D = w D, J2(W) = w^2 J2(D), J3(W) = w^3 J3(D)
+        w = -2.0 * (1.0 - 2.0 * mu * fac)
+        x00, x01, x02, x11, x12, x22 = _sym_square(d00, d01, d02, d11, d12, d22)  # D^2
+        J3d = (d00 * x00 + d11 * x11 + d22 * x22 + 2.0 * (d01 * x01 + d02 * x02 + d12 * x12)) / 3.0
+        e0, e1, e2 = _exp_traceless(w * w * 0.5 * dd, w * w * w * J3d)
+        f = c * _exp_small(t / 3.0)  # exp(-2 theta/3) = c exp(t/3), t = O(J2)
+        f0, f1, f2 = f * e0, f * e1 * w, f * e2 * w * w
+        Bout[q, 0, 0] = f0 + f1 * d00 + f2 * x00
+        Bout[q, 1, 1] = f0 + f1 * d11 + f2 * x11
+        Bout[q, 2, 2] = f0 + f1 * d22 + f2 * x22
+        Bout[q, 0, 1] = Bout[q, 1, 0] = f1 * d01 + f2 * x01
+        Bout[q, 0, 2] = Bout[q, 2, 0] = f1 * d02 + f2 * x02
+        Bout[q, 1, 2] = Bout[q, 2, 1] = f1 * d12 + f2 * x12
+        return 1
+    # elastic: binv = bt (the exponential map is the identity)
+    Bout[q, 0, 0], Bout[q, 1, 1], Bout[q, 2, 2] = bt00, bt11, bt22
+    Bout[q, 0, 1] = Bout[q, 1, 0] = bt01
+    Bout[q, 0, 2] = Bout[q, 2, 0] = bt02
+    Bout[q, 1, 2] = Bout[q, 2, 1] = bt12
+    return 0
+
+
 @_njit
 def _isochoric_points(Fu, Bn, eps_n, T_n, lmbda, mu, law, hp, tol, dt, tau, Bout, a, want_tangent, bt, Q, beta,
                       dtau, eqps, T_out):
-    """Isochoric (exponential map, logarithmic strain) model for all points (as _seed_points)."""
+    """Isochoric (exponential map, logarithmic strain) model for all points (as _seed_points).
+
+    The spectral path below (eigen-decomposition of bt) is the definition. Full 3-D states (bt02 or
+    bt12 non-zero) without tangent take :func:`_isochoric_series` instead (the same equations as
+    series in dev(bt), no eigenvectors, ~3x cheaper), held to the spectral path to round-off by
+    tests/test_isochoric_series.py; it hands back states with a large deviatoric elastic strain.
+    Block-diagonal (2-D) states and the tangent always take the spectral path.
+    """
     nplastic = 0
     for q in range(Fu.shape[0]):
         ia = q if want_tangent else 0
-        bt[0, 0], bt[0, 1], bt[0, 2], bt[1, 1], bt[1, 2], bt[2, 2] = _predictor(Fu, Bn, q)  # (11)
+        b00, b01, b02, b11, b12, b22 = _predictor(Fu, Bn, q)  # (11)
+        if not want_tangent and (b02 != 0.0 or b12 != 0.0):
+            yielded = _isochoric_series(b00, b01, b02, b11, b12, b22, eps_n, T_n, lmbda, mu, law, hp, tol, dt, tau,
+                                        Bout, eqps, T_out, q)
+            if yielded >= 0:
+                nplastic += yielded
+                continue
+        bt[0, 0], bt[0, 1], bt[0, 2], bt[1, 1], bt[1, 2], bt[2, 2] = b00, b01, b02, b11, b12, b22
         bt[1, 0], bt[2, 0], bt[2, 1] = bt[0, 1], bt[0, 2], bt[1, 2]
         _eigh3(bt, beta, Q)
         # principal logarithmic elastic strains eps_A = -1/2 ln beta_A and Kirchhoff stresses

@@ -3,7 +3,8 @@
 :meth:`fenics_plast.solvers.explicit.ExplicitDynamics.run` calls :func:`collapse_error` when the
 stable step falls below ``analysis.dt_floor`` x its initial value; the message names the cell (its
 index in the mesh file, where it is now and in the reference mesh), its size, aspect ratio, volume
-ratio J and corner angles, the collapse ratio, and the remedies with the scene keys to set. Lengths
+ratio J and corner angles (hexahedra: size V / A_max, aspect ratio and J, no angles), the collapse
+ratio, and the remedies with the scene keys to set. Lengths
 in mm, times in s (the message gives us where users write them).
 """
 from __future__ import annotations
@@ -12,6 +13,7 @@ import numpy as np
 from mpi4py import MPI
 
 from fenics_plast.errors import RunError
+from fenics_plast.solvers import hex_step
 from fenics_plast.solvers.time_integration import quad_min_size
 
 
@@ -36,7 +38,8 @@ def critical_cell(solver) -> dict:
     factor), ``dt`` (its stable step [s], ``ExplicitDynamics.cell_dt``), ``dt_size`` and
     ``dt_element`` (its size estimate and its element's step 2 / omega_max [s]) and ``max_angle``,
     ``min_angle`` (its largest and smallest interior corner angles [deg]; above 180: no longer
-    convex)."""
+    convex). Hexahedra: ``size`` is V / A_max (volume over largest face area), ``aspect`` longest
+    edge / size, ``volume_ratio`` V / V0, and the angles are None."""
     dt_loc, i = solver._local_min_dt()
     best = solver.comm.allreduce((dt_loc, solver.comm.rank), op=MPI.MINLOC) if solver.comm.size > 1 \
         else (dt_loc, solver.comm.rank)
@@ -44,6 +47,9 @@ def critical_cell(solver) -> dict:
     if solver.comm.rank == best[1] and i >= 0:
         dt_size = float(solver._hbuf[i])
         dt_el = float(solver._eig_dt(np.array([i]))[0])
+        if getattr(solver, "three_d", False):
+            info = _hex_cell_info(solver, i, dt_loc, dt_size, dt_el)
+            return solver.comm.bcast(info, root=best[1]) if solver.comm.size > 1 else info
         idx = solver._cell_dofs[i]                        # cyclic order
         P, P0 = solver._xbuf[idx].copy(), solver._X[idx]
         size = float(quad_min_size(P[None])[0])
@@ -69,17 +75,35 @@ def critical_cell(solver) -> dict:
     return solver.comm.bcast(info, root=best[1]) if solver.comm.size > 1 else info
 
 
+def _hex_cell_info(solver, i, dt, dt_size, dt_element):
+    """:func:`critical_cell`'s dict for owned hexahedron i (no corner angles)."""
+    idx = solver._cell_dofs[i]                            # basix order
+    P, P0 = solver._xbuf[idx].copy(), solver._X[idx]
+    size = float(hex_step.hex_size(P, np.arange(8)[None])[0])
+    edges = hex_step.hex_edge_lengths(P[None])[0]
+    return dict(cell=int(solver.mesh.topology.original_cell_index[i]), position=P.mean(axis=0).tolist(),
+                reference=P0.mean(axis=0).tolist(), size=size, aspect=float(edges.max() / max(size, 1e-300)),
+                volume_ratio=float(hex_step.hex_volume(P[None])[0] / hex_step.hex_volume(P0[None])[0]),
+                factor=float(solver.cell_scale[i]), dt=dt, dt_size=dt_size, dt_element=dt_element,
+                max_angle=None, min_angle=None)
+
+
 def collapse_error(solver, dt_stable, dt_stable0, dt_floor, mass_scaling_dt) -> TimeStepCollapse:
     """The :class:`TimeStepCollapse` of a step below the floor (collective): its message names the
     cell, where it is, its shape and the remedies."""
     c = critical_cell(solver)
-    ax = ("r", "z") if solver.kin.axisymmetric else ("x", "y")
+    ax = ("r", "z") if solver.kin.axisymmetric else ("x", "y", "z")[: len(c["position"])]
     ratio = dt_stable / dt_stable0
-    pos = f"({ax[0]}, {ax[1]}) = ({c['position'][0]:.4g}, {c['position'][1]:.4g}) mm"
-    ref = f"({c['reference'][0]:.4g}, {c['reference'][1]:.4g}) mm"
+    pos = f"({', '.join(ax)}) = ({', '.join(f'{x:.4g}' for x in c['position'])}) mm"
+    ref = f"({', '.join(f'{x:.4g}' for x in c['reference'])}) mm"
+    hexa = c["max_angle"] is None
     suggest = float(f"{0.2 * dt_stable0 * 1e6:.2g}")
     remedies = []
-    if solver.stable_step == "size" and c["dt_element"] > 10.0 * c["dt_size"]:
+    if solver.stable_step == "size" and c["dt_element"] > 10.0 * c["dt_size"] and hexa:
+        remedies.append(f"the cell's own elastic element step 2/omega_max is {c['dt_element']:.3g} s, "
+                        f"{c['dt_element'] / c['dt_size']:.3g} x its size estimate: --set "
+                        f"analysis.stable_step=element takes the element's step")
+    elif solver.stable_step == "size" and c["dt_element"] > 10.0 * c["dt_size"]:
         # the size estimate collapses on a corner near 180 degrees; the element does not
         remedies.append(f"the cell's own elastic element step 2/omega_max is {c['dt_element']:.3g} s, "
                         f"{c['dt_element'] / c['dt_size']:.3g} x its size estimate h/c (the smallest altitude "
@@ -98,15 +122,20 @@ def collapse_error(solver, dt_stable, dt_stable0, dt_floor, mass_scaling_dt) -> 
     msg = (f"time step collapsed at t = {solver.t * 1e6:.4g} us (step {solver.step_count}): the stable step "
            f"{dt_stable:.4g} s is {ratio:.3g} of its initial value {dt_stable0:.4g} s, below "
            f"analysis.dt_floor = {dt_floor:g}. It is set by cell {c['cell']} (the mesh file's cell order) "
-           f"at {pos} (reference {ref}): smallest size {c['size']:.3g} mm, aspect ratio {c['aspect']:.3g} "
-           f"(longest edge / smallest size), volume ratio J = {c['volume_ratio']:.3g}, corner angles "
-           f"{c['min_angle']:.1f} to {c['max_angle']:.1f} degrees"
+           f"at {pos} (reference {ref}): "
+           + (f"size (volume / largest face area) {c['size']:.3g} mm, aspect ratio {c['aspect']:.3g} (longest "
+              f"edge / size), volume ratio J = {c['volume_ratio']:.3g}" if hexa else
+              f"smallest size {c['size']:.3g} mm, aspect ratio {c['aspect']:.3g} "
+              f"(longest edge / smallest size), volume ratio J = {c['volume_ratio']:.3g}, corner angles "
+              f"{c['min_angle']:.1f} to {c['max_angle']:.1f} degrees")
            + (f", mass-scaling density factor {c['factor']:.3g}" if c["factor"] > 1.0 else "")
            + ". Remedies: " + "; ".join(remedies) + ". (A lower analysis.dt_floor lets the run go on, at "
            "ever smaller steps.)")
     results = dict(stopped_at_us=solver.t * 1e6, dt_collapse_ratio=ratio, collapse_cell=c["cell"],
                    collapse_cell_position_mm=c["position"], collapse_cell_reference_mm=c["reference"],
                    collapse_cell_size_mm=c["size"], collapse_cell_aspect_ratio=c["aspect"],
-                   collapse_cell_volume_ratio=c["volume_ratio"], collapse_cell_max_angle_deg=c["max_angle"],
-                   collapse_cell_dt_element_s=c["dt_element"])
+                   collapse_cell_volume_ratio=c["volume_ratio"])
+    if not hexa:
+        results["collapse_cell_max_angle_deg"] = c["max_angle"]
+    results["collapse_cell_dt_element_s"] = c["dt_element"]
     return TimeStepCollapse(msg, results=results)

@@ -30,6 +30,12 @@ prescribed motion, loads and contact see :mod:`fenics_plast.solvers.time_integra
 * Several materials (:class:`~fenics_plast.material.regions.MaterialRegions`, one density each):
   the mass uses each cell's density, the stable step each cell's wave speed (min over cells of
   h_c / c_c); one material keeps the plain path (h_min / c, a constant density).
+* Geometry "3d" (``Kinematics(mesh, "3d")``, hexahedral mesh): 3 components per node (nodal
+  vectors are entry ``3 node + component``), trilinear hexahedra with 2 x 2 x 2 Gauss points, the
+  fused pass's hexahedral kernels (:mod:`fenics_plast.solvers.fused_force_hex`, held to the UFL
+  residual by tests/test_fused_force_3d.py) and the hexahedral stable step
+  (:mod:`fenics_plast.solvers.hex_step`: size estimate kappa V / A_max / c, the element step
+  2 / omega_max where that is below the minimum, taken as the cell's step). 2-D code paths unchanged.
 * Stable step: per cell the larger of h / c and 2 / omega_max of its elastic element
   (``stable_step="element"``, the default; "size": h / c alone), h the smallest edge or altitude of
   the deformed quad and c = sqrt((lambda + 2 mu) / rho) the dilatational wave speed, see
@@ -71,6 +77,8 @@ from fenics_plast.errors import RunError
 from fenics_plast.material import MaterialRegions
 from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 from fenics_plast.solvers import fused_force
+from fenics_plast.solvers import hex_step
+from fenics_plast.solvers.fused_force_hex import HexGeometry
 from fenics_plast.solvers import time_integration as ti
 from fenics_plast.solvers.collapse import collapse_error
 from fenics_plast.solvers.explicit_contact import ContactSet
@@ -113,8 +121,10 @@ class ExplicitDynamics:
             raise ValueError(f"element must be 'q1p0' or 'q1', got {element!r}")
         if internal_force not in self.INTERNAL_FORCE_ROUTES:
             raise ValueError(f"internal_force must be one of {self.INTERNAL_FORCE_ROUTES}, got {internal_force!r}")
-        if mesh.ufl_cell().cellname() != "quadrilateral":
-            raise ValueError("the explicit solver supports quadrilateral meshes only")
+        cellname = mesh.ufl_cell().cellname()
+        if cellname != ("hexahedron" if kin.three_d else "quadrilateral"):
+            raise ValueError(f"the explicit solver takes quadrilaterals in 2-D and hexahedra in 3-D, got "
+                             f"{cellname} cells with geometry {kin.geometry!r}")
         if stable_step not in self.STABLE_STEPS:
             raise ValueError(f"stable_step must be one of {self.STABLE_STEPS}, got {stable_step!r}")
         self.stable_step = stable_step
@@ -144,11 +154,14 @@ class ExplicitDynamics:
         self.cells_global = mesh.topology.index_map(tdim).size_global
 
         # geometry for the stable step: reference positions of the dofs, cell -> dofs
-        X = V.tabulate_dof_coordinates()[:, :2]
+        self.three_d = kin.three_d
+        X = V.tabulate_dof_coordinates()[:, : self.bs]
         self._X = np.ascontiguousarray(X)
-        cell_nodes = np.ascontiguousarray(V.dofmap.list.array.reshape(-1, 4)[: self.n_cells_own], dtype=np.int64)
+        nv = 8 if self.three_d else 4
+        cell_nodes = np.ascontiguousarray(V.dofmap.list.array.reshape(-1, nv)[: self.n_cells_own], dtype=np.int64)
         self._cell_nodes = cell_nodes                                # basix order
-        self._cell_dofs = np.ascontiguousarray(cell_nodes[:, _QUAD_CYCLE])   # cyclic order
+        # quadrilaterals: cyclic vertex order (size, element step); hexahedra: basix order
+        self._cell_dofs = cell_nodes if self.three_d else np.ascontiguousarray(cell_nodes[:, _QUAD_CYCLE])
         self._xbuf = np.empty_like(self._X)
         self._hbuf = np.empty(self.n_cells_own)
         if self.regions:
@@ -159,8 +172,12 @@ class ExplicitDynamics:
         else:
             self._cell_c = None
             self.c = material.wave_speed(self.density)
-        points, weights = fused_force.quadrature(kin.degree)        # the rule of kin.dx and QuadratureMap
-        self.geometry = fused_force.CellGeometry(self._X[cell_nodes], points, weights, kin.axisymmetric)
+        if self.three_d:
+            points, weights = fused_force.quadrature(kin.degree, "hexahedron")   # the rule of kin.dx, QuadratureMap
+            self.geometry = HexGeometry(self._X[cell_nodes], points, weights)
+        else:
+            points, weights = fused_force.quadrature(kin.degree)        # the rule of kin.dx and QuadratureMap
+            self.geometry = fused_force.CellGeometry(self._X[cell_nodes], points, weights, kin.axisymmetric)
 
         vt = ufl.TestFunction(V)
         if self.fused:
@@ -203,7 +220,7 @@ class ExplicitDynamics:
         # selective mass scaling (run(mass_scaling_dt=...), :meth:`scale_mass`): the unscaled nodal mass,
         # each owned cell's density factor (>= 1), the kinetic energy the added mass brought in [N mm]
         # (local accumulator); mass_scaled: some cell of some rank has been scaled (the same on every
-        # rank); each cell's share of its 4 nodes' mass and its Lame constants (element steps)
+        # rank); each cell's share of its nodes' mass and its Lame constants (element steps)
         self.mass0 = self.mass.copy()
         self.cell_scale = np.ones(self.n_cells_own)
         self.E_mass = 0.0
@@ -228,7 +245,8 @@ class ExplicitDynamics:
         self.qmap = QuadratureMap(self.mesh, kin, self.material, None, degree=kin.degree, tangent=False)
         n = self.qmap.n
         self._Fu = np.zeros((n, 3, 3))              # off-block entries stay 0 (2-D kinematics)
-        self._Finv = np.zeros((n, 5))
+        # F^-1: (n, 5) on quadrilaterals, (n, 3, 3) on hexahedra (which picks the fused pass's kernels)
+        self._Finv = np.zeros((n, 3, 3)) if self.three_d else np.zeros((n, 5))
         self._factor = np.zeros(n)
         self.theta_cells = np.ones(self.n_cells_own)
         self.theta = self.theta_n = None
@@ -277,19 +295,24 @@ class ExplicitDynamics:
 
     # ------------------------------------------------------------------------------------------
     def set_velocity(self, value):
-        """Initial velocity [mm/s]: (vr, vz) for the whole body, or one row per local node (owned and
-        ghost; shape (n, 2)); constrained components are set to zero."""
+        """Initial velocity [mm/s]: (vr, vz) ((vx, vy, vz) in 3-D) for the whole body, or one row per
+        local node (owned and ghost; shape (n, gdim)); constrained components are set to zero."""
         self.v.x.array.reshape(-1, self.bs)[:] = np.asarray(value, dtype=float)
         self.v.x.array[self.fixed] = 0.0
         self.v.x.scatter_forward()
 
     def _size_dt(self):
         """The size estimate of each owned cell's stable step on the current (deformed) mesh [s]:
-        sqrt(s) h / c, h the cell's smallest edge or altitude, c its material's dilatational wave
-        speed, s its mass-scaling density factor (1 without). A work buffer, overwritten by the next
+        sqrt(s) h / c, h the cell's smallest edge or altitude (hexahedra: kappa V / A_max, see
+        :mod:`~fenics_plast.solvers.hex_step`), c its material's dilatational wave speed, s its
+        mass-scaling density factor (1 without). A work buffer, overwritten by the next
         call; ``self._xbuf`` holds the current node positions afterwards."""
         np.add(self._X, self.u.x.array.reshape(-1, self.bs), out=self._xbuf)
-        h = _quad_min_size(self._xbuf, self._cell_dofs, self._hbuf)
+        if self.three_d:        # kappa V / A_max (hex_step.py: kappa, the cube's breathing mode)
+            h = hex_step.hex_size(self._xbuf, self._cell_dofs, self._hbuf)
+            np.multiply(h, self._hex_kappa, out=h)
+        else:
+            h = _quad_min_size(self._xbuf, self._cell_dofs, self._hbuf)
         np.divide(h, self.c if self._cell_c is None else self._cell_c, out=h)
         if self.mass_scaled:
             np.multiply(h, self._sqrt_scale, out=h)
@@ -300,6 +323,10 @@ class ExplicitDynamics:
         with their (scaled) share of the lumped mass [s] (:func:`time_integration._quad_eig_dt`);
         call after :meth:`_size_dt` (node positions)."""
         cells = np.ascontiguousarray(cells, dtype=np.int64)
+        if self.three_d:
+            out = hex_step.hex_eig_dt(self._xbuf, self._cell_dofs, cells, self._mass_cyc, self._lam_c, self._mu_c,
+                                      self.element == "q1p0")
+            return out * self._sqrt_scale[cells]
         out = ti._quad_eig_dt(self._xbuf, self._cell_dofs, cells, self._mass_cyc, self._lam_c, self._mu_c,
                               self.kin.axisymmetric, self.element == "q1p0", np.empty(cells.size))
         return out * self._sqrt_scale[cells]
@@ -324,6 +351,10 @@ class ExplicitDynamics:
         if self.stable_step == "size":
             i = int(np.argmin(d))
             return float(d[i]), i
+        if self.three_d:
+            best, arg = hex_step.hex_lazy_min(d, self._xbuf, self._cell_dofs, self._mass_cyc, self._lam_c,
+                                              self._mu_c, self._sqrt_scale, self.element == "q1p0")
+            return float(best), int(arg)
         best, arg = ti._lazy_min(d, np.argsort(d), self._xbuf, self._cell_dofs, self._mass_cyc, self._lam_c,
                                  self._mu_c, self._sqrt_scale, self.kin.axisymmetric, self.element == "q1p0")
         return float(best), int(arg)
@@ -357,7 +388,7 @@ class ExplicitDynamics:
 
     # -- selective mass scaling and the time-step floor ---------------------------------------
     def _setup_cell_masses(self):
-        """Each owned cell's share m_ca = int_cell rho N_a w dV of the lumped mass of its 4 nodes
+        """Each owned cell's share m_ca = int_cell rho N_a w dV of the lumped mass of its nodes (4, or 8 on hexahedra)
         [tonne] (basix order ``_cell_mass``, cyclic order ``_mass_cyc``) and its Lame constants
         (``_lam_c``, ``_mu_c`` [MPa]): the element steps and mass scaling."""
         nc = self.n_cells_own
@@ -372,7 +403,11 @@ class ExplicitDynamics:
             lm, mu = self.material.lame
             self._lam_c, self._mu_c = np.full(nc, float(lm)), np.full(nc, float(mu))
         self._cell_mass = rho[:, None] * np.einsum("qa,cq->ca", self.geometry.N, self.geometry.W)
-        self._mass_cyc = np.ascontiguousarray(self._cell_mass[:, _QUAD_CYCLE])
+        if self.three_d:        # (8 nodes, basix order) and the size estimate's factor per cell
+            self._mass_cyc = self._cell_mass
+            self._hex_kappa = hex_step.size_factor(self._lam_c, self._mu_c)
+        else:
+            self._mass_cyc = np.ascontiguousarray(self._cell_mass[:, _QUAD_CYCLE])
         self._sqrt_scale = np.ones(nc)
 
     def scale_mass(self, target):
@@ -381,7 +416,7 @@ class ExplicitDynamics:
 
         Every owned cell whose stable step dt_c (:meth:`cell_dt`) is below ``target`` gets its density
         factor raised so that its step becomes ``target``: s_c <- s_c (target / dt_c)^2 (dt_c grows as
-        sqrt(s_c)); its 4 nodes get the mass (s_new - s_old) m_ca, m_ca the cell's share of node a's
+        sqrt(s_c)); its nodes (4 or 8) get the mass (s_new - s_old) m_ca, m_ca the cell's share of node a's
         lumped mass, assembled over the ranks. Mass is never removed. The added mass takes the node's
         current velocity: the kinetic energy 1/2 dm v^2 it brings is accumulated in ``E_mass``, a term
         of the energy balance (:meth:`energies`). The acceleration of the changed dofs is recomputed
@@ -773,7 +808,7 @@ class ExplicitDynamics:
         return self.comm.allreduce(loc, op=MPI.MAX)
 
     def nodal_positions(self):
-        """Current positions of the owned+ghost dofs' nodes (n, 2)."""
+        """Current positions of the owned+ghost dofs' nodes (n, gdim)."""
         return self._X + self.u.x.array.reshape(-1, self.bs)
 
     # ------------------------------------------------------------------------------------------
@@ -935,9 +970,10 @@ class ExplicitDynamics:
         bad = self._nonfinite_cell(local)
         if bad is None:
             return head + " Lower analysis.dt_safety or raise analysis.time_steps"
-        ax = ("r", "z") if self.kin.axisymmetric else ("x", "y")
+        ax = ("r", "z") if self.kin.axisymmetric else ("x", "y", "z")[: self.bs]
+        where = f"({', '.join(ax)}) = ({', '.join(f'{x:.4g}' for x in bad[1])}) mm"
         return (head + f" The stress became non-finite in cell {bad[0]} (the mesh file's cell order; reference "
-                f"({ax[0]}, {ax[1]}) = ({bad[1][0]:.4g}, {bad[1][1]:.4g}) mm): most likely the cell folded "
+                f"{where}): most likely the cell folded "
                 f"(inverted), which a smaller time step does not prevent, nor mass scaling. Remedies: a finer mesh "
                 f"(mesh.refine) or one graded toward that cell; another element or material model "
                 f"(mesh.element, materials.<name>.model) may follow the deformation further")

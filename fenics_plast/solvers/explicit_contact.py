@@ -1,8 +1,8 @@
 r"""Penalty contact with Coulomb friction for the explicit solver: body nodes against rigid tools.
 
 Each :class:`ExplicitContactPair` is the set of nodes of one boundary facet group of the body
-against one rigid tool (any object with ``gap_np(x, t) -> (g (n,), N (n, 2))`` and
-``translation(t, use_ufl=False) -> (2,)``, e.g. the tools of :mod:`fenics_plast.contact`, whose
+against one rigid tool (any object with ``gap_np(x, t) -> (g (n,), N (n, dim))``, ``dim`` and
+``translation(t, use_ufl=False) -> (dim,)``, e.g. the tools of :mod:`fenics_plast.contact`, whose
 load factor is the time t [s] here). Units mm, N, MPa, s.
 
 * Nodes: the owned nodes of the facet group (each rank handles its owned nodes; totals are
@@ -35,6 +35,16 @@ SphericalPunch, ... of :mod:`fenics_plast.contact`: subclasses that keep their g
 in compiled code, so that serial fused runs keep taking several steps per compiled call; other
 tools (e.g. :class:`~fenics_plast.tools.Profile`) have their ``gap_np`` called every step, which
 makes the serial run go step by step.
+
+3-D bodies (3 dofs per node, 3-D tools): the same, with the tangential traction a vector of the
+tangent plane returned to |t| <= mu p on its norm
+(:func:`~fenics_plast.solvers.time_integration.contact_forces_3d`); compiled gaps for
+:class:`~fenics_plast.tools.Plane` (3-D), :class:`~fenics_plast.tools.Sphere`,
+:class:`~fenics_plast.tools.Cylinder` and :class:`~fenics_plast.tools.Torus`,
+:class:`~fenics_plast.tools.RevolvedProfile` through its ``gap_np``. Arrays per node have ``dim``
+(2 or 3) columns: positions, dofs, t_hist, N_hist, fc; the impulse and the tool translations
+``dim`` components; :meth:`ExplicitContactPair.tangential_force` is the vector sum A_i t_i in 3-D
+and t_scal the norm |t| of each node's tangential traction.
 """
 from __future__ import annotations
 
@@ -48,24 +58,44 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from fenics_plast.contact import LAWS
-from fenics_plast.tools import Circle, Plane
+from fenics_plast.tools import Circle, Cylinder, Plane, Sphere, Torus
 from fenics_plast.solvers import time_integration as ti
 
 _LAW_CODE = {"coulomb": ti.COULOMB, "quasi-coulomb": ti.QUASI_COULOMB}
-#: per-node history columns in checkpoints: t_hist (2), N_hist (2), p_hist, t_scal, slip, fc (2)
-_HIST_COLS = 9
+#: columns of a tool's parameters in the compiled gap (the 3-D torus needs 8)
+_N_PARAMS = 8
+
+
+def _hist_cols(dim):
+    """Per-node history columns in checkpoints: t_hist (dim), N_hist (dim), p_hist, t_scal, slip,
+    fc (dim): 9 in 2-D, 12 in 3-D."""
+    return 3 * dim + 3
 
 
 def _tool_kind(tool):
-    """(kind, params (4,)) of the compiled gap for a :class:`~fenics_plast.tools.Plane` or
-    :class:`~fenics_plast.tools.Circle` (or a subclass that keeps its gap), (GENERIC, zeros) for any
-    other tool."""
+    """(kind, params (8,)) of the compiled gap for a :class:`~fenics_plast.tools.Plane` or
+    :class:`~fenics_plast.tools.Circle` (2-D), a Plane, :class:`~fenics_plast.tools.Sphere`,
+    :class:`~fenics_plast.tools.Cylinder` or :class:`~fenics_plast.tools.Torus` (3-D), or a subclass
+    of one that keeps its gap; (GENERIC, zeros) for any other tool."""
     cls = type(tool)
+    params = np.zeros(_N_PARAMS)
     if isinstance(tool, Plane) and cls.gap_np is Plane.gap_np:
-        return ti.PLANE, np.array([tool.point[0], tool.point[1], tool.normal[0], tool.normal[1]], dtype=float)
+        d = tool.dim
+        params[:2 * d] = np.concatenate([tool.point, tool.normal])
+        return ti.PLANE, params
     if isinstance(tool, Circle) and cls.gap_np is Circle.gap_np and cls.center is Circle.center:
-        return ti.CIRCLE, np.array([tool.center0[0], tool.center0[1], tool.radius, 0.0], dtype=float)
-    return ti.GENERIC, np.zeros(4)
+        params[:3] = [tool.center0[0], tool.center0[1], tool.radius]
+        return ti.CIRCLE, params
+    if isinstance(tool, Sphere) and cls.gap_np is Sphere.gap_np:
+        params[:4] = [*tool.center0, tool.radius]
+        return ti.SPHERE, params
+    if isinstance(tool, Cylinder) and cls.gap_np is Cylinder.gap_np:
+        params[:7] = [*tool.center0, *tool.axis, tool.radius]
+        return ti.CYLINDER, params
+    if isinstance(tool, Torus) and cls.gap_np is Torus.gap_np:
+        params[:8] = [*tool.center0, *tool.axis, tool.ring_radius, tool.radius]
+        return ti.TORUS, params
+    return ti.GENERIC, params
 
 
 class ExplicitContactPair:
@@ -95,13 +125,17 @@ class ExplicitContactPair:
         self.fixed = getattr(tool, "path", True) is None       # a tools.Tool without a path does not move
         self.comm = s.comm
         mesh, V, bs, n = s.mesh, s.V, s.bs, s.n_own
+        self.dim = bs
+        tool_dim = getattr(tool, "dim", 2)
+        if tool_dim != bs:
+            raise ValueError(f"contact pair {self.name!r}: a {tool_dim}-D tool on a {bs}-D body")
         fdim = mesh.topology.dim - 1
         facets = np.asarray(facet_tags.find(tag), dtype=np.int32)
         xdofs = np.asarray(fem.locate_dofs_topological(V.sub(0), fdim, facets), dtype=np.int64)
         xdofs = np.unique(xdofs[xdofs < n])
         nodes = xdofs // bs
-        self.dofs = np.ascontiguousarray(np.stack([nodes * bs, nodes * bs + 1], axis=1))   # (nc, 2)
-        self.X = np.ascontiguousarray(s._X[nodes])                                          # (nc, 2) [mm]
+        self.dofs = np.ascontiguousarray(np.stack([nodes * bs + j for j in range(bs)], axis=1))   # (nc, dim)
+        self.X = np.ascontiguousarray(s._X[nodes, :bs])                                           # (nc, dim) [mm]
         # tributary areas int N_i w dA0 (degree 4: exact for N_i times the linear weight)
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags, metadata={"quadrature_degree": 4})(tag)
         ones = fem.Constant(mesh, PETSc.ScalarType((1.0,) * bs))
@@ -122,14 +156,15 @@ class ExplicitContactPair:
 
     @property
     def compiled(self):
-        """True if the gap is computed in compiled code (Plane, Circle)."""
+        """True if the gap is computed in compiled code (Plane, Circle; 3-D: Plane, Sphere, Cylinder,
+        Torus)."""
         return self.kind != ti.GENERIC
 
     def translation(self, t):
-        """The tool's translation at time t [s] (2,) [mm]."""
+        """The tool's translation at time t [s] (dim,) [mm]."""
         if self.fixed:
-            return np.zeros(2)
-        return np.asarray(self.tool.translation(float(t), use_ufl=False), dtype=float).reshape(2)
+            return np.zeros(self.dim)
+        return np.asarray(self.tool.translation(float(t), use_ufl=False), dtype=float).reshape(self.dim)
 
     # -- reporting (collective) --------------------------------------------------------------
     def _sum(self, x):
@@ -137,7 +172,7 @@ class ExplicitContactPair:
 
     def force(self):
         """Total contact force exerted BY the tool ON the body (Fx, Fy) [N] at the current step
-        (2 pi r included in axisymmetry)."""
+        (2 pi r included in axisymmetry); (Fx, Fy, Fz) in 3-D."""
         return self._sum(self.set.fc[self.sl].sum(axis=0))
 
     def normal_force(self):
@@ -146,8 +181,11 @@ class ExplicitContactPair:
         return self._sum(float(np.dot(c.area[self.sl], c.p_hist[self.sl])))
 
     def tangential_force(self):
-        """sum_i A_i t_i [N], t signed along T = (N_y, -N_x) (0 without friction)."""
+        """sum_i A_i t_i [N], t signed along T = (N_y, -N_x) (0 without friction); 3-D: the vector
+        sum_i A_i t_i (3,) [N] of the tangential tractions."""
         c = self.set
+        if self.dim == 3:
+            return self._sum((c.area[self.sl, None] * c.t_hist[self.sl]).sum(axis=0))
         return self._sum(float(np.dot(c.area[self.sl], c.t_scal[self.sl])))
 
     def max_penetration(self):
@@ -169,11 +207,11 @@ class ExplicitContactPair:
         return self._sum(float(self.set.acc[self.index, 1]))
 
     def impulse(self):
-        """Time integral of :meth:`force` since t = 0 (trapezoidal) [N s]."""
-        return self._sum(self.set.acc[self.index, 2:4].copy())
+        """Time integral of :meth:`force` since t = 0 (trapezoidal) (dim,) [N s]."""
+        return self._sum(self.set.acc[self.index, 2:2 + self.dim].copy())
 
     def stored_energy(self):
-        """Elastic energy in the penalty springs now [N mm]: sum A (p^2 / 2 eps + t^2 / 2 eps_T)."""
+        """Elastic energy in the penalty springs now [N mm]: sum A (p^2 / 2 eps + |t|^2 / 2 eps_T)."""
         c = self.set
         a, p, t = c.area[self.sl], c.p_hist[self.sl], c.t_scal[self.sl]
         e = 0.5 * np.dot(a, p * p) / self.penalty
@@ -197,6 +235,7 @@ class ContactSet:
 
     def __init__(self, solver):
         self.solver = solver
+        self.dim = solver.bs                 # components per node: 2 (2-D) or 3 (3-D)
         self.pairs: list[ExplicitContactPair] = []
         self._build()
 
@@ -226,25 +265,26 @@ class ContactSet:
             p.sl = slice(int(a), int(b))
         cat = (lambda xs, shape, dt=float: np.ascontiguousarray(np.concatenate(xs)) if xs
                else np.zeros(shape, dtype=dt))
-        self.X = cat([p.X for p in P], (0, 2))
-        self.dofs = cat([p.dofs for p in P], (0, 2), np.int64).astype(np.int64)
+        d = self.dim
+        self.X = cat([p.X for p in P], (0, d))
+        self.dofs = cat([p.dofs for p in P], (0, d), np.int64).astype(np.int64)
         self.pair = cat([np.full(p.X.shape[0], i, dtype=np.int64) for i, p in enumerate(P)], (0,), np.int64)
         self.area = cat([p.area for p in P], (0,))
         self.kind = np.array([p.kind for p in P], dtype=np.int64)
-        self.params = np.array([p.params for p in P], dtype=float).reshape(-1, 4)
+        self.params = np.array([p.params for p in P], dtype=float).reshape(-1, _N_PARAMS)
         self.eps = np.array([p.penalty for p in P], dtype=float)
         self.eps_t = np.array([p.tangential_penalty for p in P], dtype=float)
         self.mu = np.array([p.friction for p in P], dtype=float)
         self.law = np.array([_LAW_CODE[p.law] for p in P], dtype=np.int64)
         n = self.X.shape[0]
-        self.gN = np.zeros((n, 3))
-        self.t_hist = np.zeros((n, 2))
-        self.N_hist = np.zeros((n, 2))
+        self.gN = np.zeros((n, 1 + d))
+        self.t_hist = np.zeros((n, d))
+        self.N_hist = np.zeros((n, d))
         self.p_hist = np.zeros(n)
         self.t_scal = np.zeros(n)
         self.slip = np.zeros(n)
-        self.fc = np.zeros((n, 2))
-        self.acc = np.zeros((len(P), 4))
+        self.fc = np.zeros((n, d))
+        self.acc = np.zeros((len(P), 2 + d))
         self.pen = np.zeros(len(P))
         self._dt_stable = self._combined_dt() if P else math.inf
 
@@ -273,13 +313,13 @@ class ContactSet:
                 self.pen)
 
     def translations(self, t):
-        """(npairs, 2) tool translations at time t [mm]."""
+        """(npairs, dim) tool translations at time t [mm]."""
         return self.translations_at(np.array([float(t)]))[0]
 
     def translations_at(self, times):
-        """(ntimes, npairs, 2) tool translations at the times (ntimes,) [mm]."""
+        """(ntimes, npairs, dim) tool translations at the times (ntimes,) [mm]."""
         if not self.pairs:
-            return np.zeros((len(times), 0, 2))
+            return np.zeros((len(times), 0, self.dim))
         return np.array([[p.translation(t) for p in self.pairs] for t in times], dtype=float)
 
     def update(self, u, du, dt, trans_old, trans_new, fcon, t):
@@ -290,7 +330,7 @@ class ContactSet:
                 x = p.X + u[p.dofs]
                 g, N = p.tool.gap_np(x, t)
                 self.gN[p.sl, 0] = g
-                self.gN[p.sl, 1:] = np.asarray(N)[:, :2]
+                self.gN[p.sl, 1:] = np.asarray(N)[:, :self.dim]
         ti.contact_forces(u, du, dt, *self.args(), trans_old, trans_new, fcon)
 
     # -- checkpoints -------------------------------------------------------------------------
@@ -314,9 +354,12 @@ class ContactSet:
         return [d[f"contact{i}"].take(dof_keys[self.dofs[p.sl, 0]]) for i, p in enumerate(self.pairs)]
 
     def restore(self, d, rows, root):
+        dim = self.dim
         for i, (p, r) in enumerate(zip(self.pairs, rows)):
-            r = np.asarray(r, dtype=float).reshape(-1, _HIST_COLS)
-            self.t_hist[p.sl], self.N_hist[p.sl] = r[:, 0:2], r[:, 2:4]
-            self.p_hist[p.sl], self.t_scal[p.sl], self.slip[p.sl], self.fc[p.sl] = r[:, 4], r[:, 5], r[:, 6], r[:, 7:9]
+            r = np.asarray(r, dtype=float).reshape(-1, _hist_cols(dim))
+            self.t_hist[p.sl], self.N_hist[p.sl] = r[:, 0:dim], r[:, dim:2 * dim]
+            c = 2 * dim
+            self.p_hist[p.sl], self.t_scal[p.sl], self.slip[p.sl] = r[:, c], r[:, c + 1], r[:, c + 2]
+            self.fc[p.sl] = r[:, c + 3:c + 3 + dim]
             self.acc[i] = np.asarray(d[f"contact{i}_acc"], dtype=float) if root else 0.0
             self.pen[i] = float(d[f"contact{i}_pen"])

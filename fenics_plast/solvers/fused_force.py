@@ -2,7 +2,9 @@ r"""Explicit internal force in one compiled pass: kinematics, F-bar, material up
 
 The compiled-loop twin of the UFL path (``Kinematics.Fu`` + ``QuadratureMap.update`` +
 ``Kinematics.internal_virtual_work``, assembled by dolfinx), for bilinear quadrilaterals
-(axisymmetric or plane strain). Same quadrature points, same material kernels
+(axisymmetric or plane strain) and, with the passes of :mod:`fenics_plast.solvers.fused_force_hex`,
+trilinear hexahedra (geometry "3d", 2 x 2 x 2 Gauss points; chosen by the arrays' shapes when numba
+compiles, so the step loops of time_integration.py serve both). Same quadrature points, same material kernels
 (:mod:`fenics_plast.material.kernels`), same equations (DESIGN.md, "R_u"):
 
     F       = I + Grad u,  hoop F_hh = 1 + u_r / R  (axisymmetric; 1 in plane strain)
@@ -18,8 +20,9 @@ axisymmetry) and Grad the reference gradient. Element "q1" uses theta = J (no F-
 This pass is the default route of the explicit solver (``solver.internal_force = "fused"``): the
 dolfinx route costs ~0.7 ms per explicit step on the 216-cell Taylor bar (generated kernels ~1 us
 per cell, packing and Python overhead per call); this pass costs a fraction of that. The UFL
-residual stays the definition the pass is held to: ``tests/test_fused_force.py`` checks that both
-give the same force, stress and state and the same run to round-off; ``solver.internal_force =
+residual stays the definition the pass is held to: ``tests/test_fused_force.py`` (2-D) and
+``tests/test_fused_force_3d.py`` (hexahedra) check that both give the same force, stress and state
+(and, in 2-D, the same run) to round-off; ``solver.internal_force =
 "ufl"`` selects the dolfinx route.
 
 Several materials (:class:`~fenics_plast.material.regions.MaterialRegions`): the material update runs
@@ -77,9 +80,10 @@ class CellGeometry:
         self.Rinv = np.ascontiguousarray(1.0 / R if axisymmetric else np.zeros_like(R))
 
 
-def quadrature(degree):
-    """Points (nq, 2) and weights (nq,) of the default basix rule on the reference quadrilateral."""
-    return basix.make_quadrature(basix.QuadratureType.Default, basix.CellType.quadrilateral, degree)
+def quadrature(degree, cell="quadrilateral"):
+    """Points (nq, tdim) and weights (nq,) of the default basix rule on the reference cell
+    ("quadrilateral" or "hexahedron")."""
+    return basix.make_quadrature(basix.QuadratureType.Default, getattr(basix.CellType, cell), degree)
 
 
 @_njit
@@ -209,8 +213,12 @@ def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, 
                    binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
     """Kinematics, material update and commit, nodal internal force, in one call.
 
-    u, u_n : (2 n_nodes,) current and previous displacement (owned + ghost) [mm].
-    cell_dofs : (nc, 4) node indices of the owned cells (basix order).
+    Quadrilaterals (``CellGeometry``) or hexahedra (``fused_force_hex.HexGeometry``), told apart by the
+    shape of Finv when numba compiles (see :func:`_cell_kinematics`).
+
+    u, u_n : (gdim n_nodes,) current and previous displacement (owned + ghost) [mm].
+    cell_dofs : (nc, 4 | 8) node indices of the owned cells (basix order).
+    dNdX, N, Rinv, W : the geometry's arrays (``CellGeometry`` / ``HexGeometry``).
     model, lmbda, mu, law, hp, yield_tol : ``Material.kernel_args()`` (one material), or the
         per-material tables of ``MaterialRegions.kernel_args()`` together with ``regions``.
     regions : None (one material) or ``MaterialRegions.point_layout(nq)``: the points of each
@@ -219,13 +227,55 @@ def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, 
         place (explicit steps commit every update).
     dt : (1,) the step's time increment [s] (Johnson-Cook plastic strain rate and heating; set by the
         solver before each step, 0 at the start).
-    tau : (n,3,3) Kirchhoff stress out [MPa]; Fu (n,3,3) work array whose off-block entries stay 0;
-    Finv (n,5), factor (n,) work arrays; theta (nc,) mean dilatation out; f (2 n_nodes,) force out [N].
+    tau : (n,3,3) Kirchhoff stress out [MPa]; Fu (n,3,3) work array (quadrilaterals: its off-block
+    entries stay 0); Finv (n,5) on quadrilaterals (rr, rz, zr, zz, hh), (n,3,3) on hexahedra, and
+    factor (n,): work arrays; theta (nc,) mean dilatation out; f (gdim n_nodes,) force out [N].
     Returns True if the stress and the force are finite.
     """
-    _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta)
+    _cell_kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta)
     _material_update(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, temp, dt[0], tau)
-    return _force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f)
+    return _nodal_force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f)
+
+
+def _cell_kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta):
+    """Pass 1 of the cells' kind (compiled: see the overload below)."""
+    raise NotImplementedError("compiled code only")
+
+
+def _nodal_force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f):
+    """Pass 3 of the cells' kind (compiled: see the overload below)."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(_cell_kinematics)
+def _cell_kinematics_impl(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta):
+    """Chosen by Finv's dimension when numba compiles: 2, quadrilaterals (:func:`_kinematics`);
+    3, hexahedra (:func:`fenics_plast.solvers.fused_force_hex.hex_kinematics`)."""
+    if Finv.ndim == 3:
+        from fenics_plast.solvers.fused_force_hex import hex_kinematics
+
+        def hexahedra(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta):
+            hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, Fu, Finv, factor, theta)
+        return hexahedra
+
+    def quadrilaterals(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta):
+        _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta)
+    return quadrilaterals
+
+
+@overload(_nodal_force)
+def _nodal_force_impl(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f):
+    """Chosen by Finv's dimension when numba compiles, as :func:`_cell_kinematics_impl`."""
+    if Finv.ndim == 3:
+        from fenics_plast.solvers.fused_force_hex import hex_force
+
+        def hexahedra(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f):
+            return hex_force(tau, cell_dofs, dNdX, W, Finv, factor, f)
+        return hexahedra
+
+    def quadrilaterals(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f):
+        return _force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f)
+    return quadrilaterals
 
 
 def _material_update(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, temp, dt, tau):

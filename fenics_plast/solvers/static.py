@@ -8,6 +8,10 @@ assembled from the consistent tangent computed in the same update.
 
 Loading is a scalar load factor ``lam`` in [0, 1]: Dirichlet values are ``lam * value`` and
 extra residual terms (pressures) may use ``solver.load`` (a fem.Constant equal to lam).
+
+Geometries: those of :class:`fenics_plast.kinematics.Kinematics` (2-D quadrilaterals, 3-D
+hexahedra). Linear solves: ``linear_solver="mumps"`` (LU, the default) or ``"gamg"`` (GMRES + GAMG
+with rigid-body modes; q1p0 condenses the dilatation exactly first: :mod:`fenics_plast.solvers.krylov`).
 """
 from __future__ import annotations
 
@@ -25,6 +29,7 @@ from petsc4py import PETSc
 from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 
 from fenics_plast.errors import RunError
+from fenics_plast.solvers import krylov
 
 _prefix_counter = itertools.count()
 
@@ -46,9 +51,12 @@ class StaticSolver:
     """Newton (SNES newtonls + line search, MUMPS LU) with incremental loading."""
 
     def __init__(self, kin, material, element="q1p0", rtol=1e-9, atol=1e-8, max_iterations=25,
-                 linesearch="bt", stol=0.0, verbose=True, log=None, progress=None):
+                 linesearch="bt", stol=0.0, verbose=True, log=None, progress=None, linear_solver="mumps",
+                 linear_rtol=1e-8, linear_max_iterations=500):
         if element not in ("q1p0", "q1"):
             raise ValueError(f"element must be 'q1p0' or 'q1', got {element!r}")
+        if linear_solver not in ("mumps", "gamg"):
+            raise ValueError(f"linear_solver must be 'mumps' or 'gamg', got {linear_solver!r}")
         self.kin = kin
         self.mesh = mesh = kin.mesh
         self.comm = mesh.comm
@@ -101,7 +109,10 @@ class StaticSolver:
         self._bcs = []          # (DirichletBC, g Function, g0 array): g = lam * g0
         self._prescribed = []   # (DirichletBC, g Function, X (3, n), value(X, t)): g = value(X, lam)
         self.options = dict(rtol=rtol, atol=atol, max_iterations=max_iterations,
-                            linesearch=linesearch, stol=stol)
+                            linesearch=linesearch, stol=stol, linear_solver=linear_solver,
+                            linear_rtol=linear_rtol, linear_max_iterations=linear_max_iterations)
+        self._condensed = None      # the python PC of linear_solver "gamg" with q1p0
+        self._ksp_iterations = []   # GMRES iterations per Newton step (linear_solver "gamg", q1)
         self._setup_done = False
         # records
         self.increments = []    # dicts per converged increment
@@ -210,14 +221,24 @@ class StaticSolver:
         self.prefix = f"fp_static_{next(_prefix_counter)}_"
         opts = PETSc.Options()
         o = self.options
-        for k, v in {
+        snes_opts = {
             "snes_type": "newtonls", "snes_linesearch_type": o["linesearch"],
             "snes_rtol": o["rtol"], "snes_atol": o["atol"], "snes_stol": o["stol"],
             "snes_max_it": o["max_iterations"], "snes_max_funcs": 10 * o["max_iterations"] + 10,
             "snes_error_if_not_converged": False,
-            "ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps",
-            "mat_mumps_icntl_14": 100, "ksp_error_if_not_converged": False,
-        }.items():
+        }
+        gamg = o["linear_solver"] == "gamg"
+        if not gamg:
+            snes_opts.update({"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps",
+                              "mat_mumps_icntl_14": 100, "ksp_error_if_not_converged": False})
+        elif self.mixed:        # outer preonly around the condensing python PC; its inner GMRES + GAMG
+            snes_opts.update({"ksp_type": "preonly", "ksp_error_if_not_converged": False})
+            snes_opts.update({k[len(self.prefix):]: v for k, v in krylov.gamg_options(
+                self.prefix + "inner_", o["linear_rtol"], o["linear_max_iterations"]).items()})
+        else:
+            snes_opts.update({k[len(self.prefix):]: v for k, v in krylov.gamg_options(
+                self.prefix, o["linear_rtol"], o["linear_max_iterations"]).items()})
+        for k, v in snes_opts.items():
             opts[self.prefix + k] = v
         xg = self.mesh.geometry.x
         self._extent = self.comm.allreduce(float(np.abs(xg).max()) if xg.size else 0.0, op=MPI.MAX)
@@ -230,7 +251,30 @@ class StaticSolver:
         snes.setMonitor(_weak(self._monitor))
         snes.setFromOptions()
         snes.getKSP().setFromOptions()
+        if gamg:
+            self._setup_gamg()
         self._setup_done = True
+
+    def _setup_gamg(self):
+        """Rigid-body modes on the Jacobian (q1), or the condensing python PC (q1p0)."""
+        modes = krylov.rigid_body_modes(self.V, self.x, self.kin.geometry)
+        if not self.mixed:
+            self.A.setNearNullSpace(PETSc.NullSpace().create(vectors=modes, comm=self.comm))
+            return
+        is_u, is_t = krylov.displacement_index_sets(self.W, self.V, self.theta_dofs, self.kin.gdim)
+        self._condensed = krylov.CondensedDilatation(self.comm, is_u, is_t, modes, self.prefix + "inner_",
+                                                     self.kin.gdim)
+        pc = self.snes.getKSP().getPC()
+        pc.setType(PETSc.PC.Type.PYTHON)
+        pc.setPythonContext(self._condensed)
+
+    @property
+    def linear_iterations(self):
+        """Iterations of the iterative linear solves so far (linear_solver "gamg"), one per Newton step;
+        empty for MUMPS."""
+        if self._condensed is not None:
+            return list(self._condensed.iterations)
+        return list(getattr(self, "_ksp_iterations", []))
 
     def close(self):
         """Destroy the SNES and remove this solver's entries from PETSc's global options database, which
@@ -243,6 +287,9 @@ class StaticSolver:
         for name in [k for k in opts.getAll() if k.startswith(prefix)]:
             opts.delValue(name)
         self.prefix = None
+        if getattr(self, "_condensed", None) is not None:
+            self._condensed.destroy()
+            self._condensed = None
         if getattr(self, "snes", None) is not None:
             self.snes.destroy()
             self.snes = None
@@ -260,6 +307,8 @@ class StaticSolver:
 
     def _monitor(self, snes, its, norm):
         self.norms.append(float(norm))
+        if its > 0 and self._condensed is None and self.options["linear_solver"] == "gamg":
+            self._ksp_iterations.append(snes.getKSP().getIterationNumber())
         n = self.norms
         if its > 0 and n[-1] <= self.roundoff_floor and n[-1] > 0.1 * n[-2]:
             # stalled at the round-off floor: converged (SNES tests convergence right after this)
@@ -340,6 +389,8 @@ class StaticSolver:
         reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
         ksp_reason = self.snes.getKSP().getConvergedReason()
+        if self._condensed is not None and self._condensed.failed_reason < 0:
+            ksp_reason, self._condensed.failed_reason = self._condensed.failed_reason, 0
         bad = self.comm.allreduce(bool(self._bad_update), op=MPI.LOR)
         if bad and not self._bad_update:
             self._bad_message = "material update failed on another rank"

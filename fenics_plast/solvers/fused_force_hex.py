@@ -1,0 +1,213 @@
+r"""The fused internal-force pass on trilinear hexahedra (geometry "3d"): its kinematics and nodal force.
+
+:func:`fenics_plast.solvers.fused_force.internal_force` runs these two passes around the material
+update when its arrays are those of hexahedra (``Finv`` of shape (n, 3, 3); the quadrilateral
+passes take (n, 5)), so the explicit solver's compiled step loops
+(:mod:`fenics_plast.solvers.time_integration`) serve 2-D and 3-D alike. Equations (DESIGN.md,
+"R_u"; units mm, N, MPa):
+
+    F       = I + Grad u  (full 3x3, u a 3-vector field),  F_n likewise from u_n
+    theta_c = sum_q J_q W_q / sum_q W_q                       mean dilatation of cell c (Q1/P0)
+    Fu      = ((theta J_n) / (theta_n J))^(1/3) F F_n^-1       F-bar increment (seed eq. 10)
+    f_ai    = sum_q (J / theta) (tau F^-T)_ij Grad_j N_a W_q   nodal force [N]
+
+with W_q = |det J0(X_q)| q_w (weight 1 in 3-D) and Grad the reference gradient; element "q1" uses
+theta = J. The points are the default basix rule of degree 2 on the hexahedron (2 x 2 x 2 Gauss,
+the rule of ``QuadratureMap`` and ``Kinematics.dx``), the vertex order basix's tensor-product one
+(vertex a at (a & 1, (a >> 1) & 1, (a >> 2) & 1) of the unit cube).
+
+The definition is the UFL residual ``Kinematics.internal_virtual_work`` (assembled by dolfinx on
+the explicit solver's ``internal_force = "ufl"`` route); ``tests/test_fused_force_3d.py`` holds
+this pass's force, stress and state to it to 1e-12 on a yielding state of distorted hexahedra
+(both elements, both material models).
+
+numba caches ``fused_force.internal_force`` (and the step loops) with these kernels compiled in,
+keyed on the calling modules' files only: after editing this file delete
+``fenics_plast/solvers/__pycache__/*.nb[ic]``.
+"""
+from __future__ import annotations
+
+import math
+
+import basix
+import numba
+import numpy as np
+
+from fenics_plast.solvers.fused_force import _cbrt
+
+_njit = numba.njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
+
+#: the reference coordinates (0 or 1) of the 8 vertices of basix's hexahedron, (8, 3)
+HEX_VERTICES = np.array([[a & 1, (a >> 1) & 1, (a >> 2) & 1] for a in range(8)], dtype=float)
+
+
+def hex_shape_functions(points):
+    """Trilinear shape functions N (nq, 8) and their reference gradients dN/dxi (nq, 8, 3) at the
+    reference points (nq, 3) of the unit cube, basix vertex order."""
+    points = np.asarray(points, dtype=float)
+    nq = points.shape[0]
+    N = np.ones((nq, 8))
+    dN = np.ones((nq, 8, 3))
+    for a in range(8):
+        for k in range(3):
+            one = HEX_VERTICES[a, k] == 1.0
+            f = points[:, k] if one else 1.0 - points[:, k]       # the factor of direction k
+            df = 1.0 if one else -1.0
+            N[:, a] *= f
+            for m in range(3):
+                dN[:, a, m] *= df if m == k else f
+    return N, dN
+
+
+def hex_quadrature(degree):
+    """Points (nq, 3) and weights (nq,) of the default basix rule on the reference hexahedron."""
+    return basix.make_quadrature(basix.QuadratureType.Default, basix.CellType.hexahedron, degree)
+
+
+class HexGeometry:
+    """Reference-configuration data of trilinear hexahedra at the quadrature points.
+
+    dNdX : (nc, nq, 8, 3) reference gradients of the 8 shape functions [1/mm].
+    N : (nq, 8) shape function values.
+    Rinv : (nc, nq) zeros (no hoop term in 3-D; kept so that the fused pass's arguments have the
+        same layout as on quadrilaterals).
+    W : (nc, nq) quadrature weights |det J0| q_w [mm^3].
+    """
+
+    def __init__(self, X_cells, points, weights):
+        X_cells = np.asarray(X_cells, dtype=float)              # (nc, 8, 3), basix vertex order
+        self.N, dN = hex_shape_functions(points)
+        J0 = np.einsum("cak,qal->cqkl", X_cells, dN)             # dX_k / dxi_l
+        det = np.linalg.det(J0)
+        if (det <= 0).any():
+            raise ValueError("inverted or degenerate hexahedron in the reference mesh (or vertices not in "
+                             "basix order)")
+        J0inv = np.linalg.inv(J0)                                # dxi_l / dX_k
+        self.dNdX = np.ascontiguousarray(np.einsum("qal,cqlk->cqak", dN, J0inv))
+        self.W = np.ascontiguousarray(det * weights[None, :])
+        self.Rinv = np.zeros_like(self.W)
+
+
+@_njit
+def hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, Fu, Finv, factor, theta):
+    """Pass 1 on hexahedra: Fu (n,3,3) at every point, F^-1 (n,3,3), J/theta (n,), theta (nc,).
+
+    u, u_n (3 n_nodes,) current and previous displacements [mm] (entry 3 node + component);
+    cell_dofs (nc, 8) node indices (basix order); fbar: Q1/P0 F-bar (False: theta = J, factor 1).
+    """
+    nc, nq = W.shape
+    J = np.empty(nq)
+    J_n = np.empty(nq)
+    ue = np.empty((8, 3))
+    ue_n = np.empty((8, 3))
+    F = np.empty((3, 3))
+    G = np.empty((3, 3))
+    for c in range(nc):
+        for a in range(8):
+            node = cell_dofs[c, a]
+            for i in range(3):
+                ue[a, i] = u[3 * node + i]
+                ue_n[a, i] = u_n[3 * node + i]
+        th = 0.0
+        th_n = 0.0
+        wsum = 0.0
+        for q in range(nq):
+            p = c * nq + q
+            for i in range(3):
+                for j in range(3):
+                    F[i, j] = 0.0
+                    G[i, j] = 0.0
+            for a in range(8):
+                for j in range(3):
+                    g = dNdX[c, q, a, j]
+                    for i in range(3):
+                        F[i, j] += ue[a, i] * g
+                        G[i, j] += ue_n[a, i] * g
+            for i in range(3):
+                F[i, i] += 1.0
+                G[i, i] += 1.0
+            # cofactors (adjugate transposed) of F and of F_n
+            f00 = F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1]
+            f01 = F[0, 2] * F[2, 1] - F[0, 1] * F[2, 2]
+            f02 = F[0, 1] * F[1, 2] - F[0, 2] * F[1, 1]
+            f10 = F[1, 2] * F[2, 0] - F[1, 0] * F[2, 2]
+            f11 = F[0, 0] * F[2, 2] - F[0, 2] * F[2, 0]
+            f12 = F[0, 2] * F[1, 0] - F[0, 0] * F[1, 2]
+            f20 = F[1, 0] * F[2, 1] - F[1, 1] * F[2, 0]
+            f21 = F[0, 1] * F[2, 0] - F[0, 0] * F[2, 1]
+            f22 = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
+            det = F[0, 0] * f00 + F[0, 1] * f10 + F[0, 2] * f20
+            g00 = G[1, 1] * G[2, 2] - G[1, 2] * G[2, 1]
+            g01 = G[0, 2] * G[2, 1] - G[0, 1] * G[2, 2]
+            g02 = G[0, 1] * G[1, 2] - G[0, 2] * G[1, 1]
+            g10 = G[1, 2] * G[2, 0] - G[1, 0] * G[2, 2]
+            g11 = G[0, 0] * G[2, 2] - G[0, 2] * G[2, 0]
+            g12 = G[0, 2] * G[1, 0] - G[0, 0] * G[1, 2]
+            g20 = G[1, 0] * G[2, 1] - G[1, 1] * G[2, 0]
+            g21 = G[0, 1] * G[2, 0] - G[0, 0] * G[2, 1]
+            g22 = G[0, 0] * G[1, 1] - G[0, 1] * G[1, 0]
+            det_n = G[0, 0] * g00 + G[0, 1] * g10 + G[0, 2] * g20
+            J[q] = det
+            J_n[q] = det_n
+            ir = 1.0 / det
+            Finv[p, 0, 0] = f00 * ir
+            Finv[p, 0, 1] = f01 * ir
+            Finv[p, 0, 2] = f02 * ir
+            Finv[p, 1, 0] = f10 * ir
+            Finv[p, 1, 1] = f11 * ir
+            Finv[p, 1, 2] = f12 * ir
+            Finv[p, 2, 0] = f20 * ir
+            Finv[p, 2, 1] = f21 * ir
+            Finv[p, 2, 2] = f22 * ir
+            irn = 1.0 / det_n
+            for i in range(3):
+                Fu[p, i, 0] = (F[i, 0] * g00 + F[i, 1] * g10 + F[i, 2] * g20) * irn
+                Fu[p, i, 1] = (F[i, 0] * g01 + F[i, 1] * g11 + F[i, 2] * g21) * irn
+                Fu[p, i, 2] = (F[i, 0] * g02 + F[i, 1] * g12 + F[i, 2] * g22) * irn
+            th += det * W[c, q]
+            th_n += det_n * W[c, q]
+            wsum += W[c, q]
+        th /= wsum
+        th_n /= wsum
+        theta[c] = th
+        for q in range(nq):
+            p = c * nq + q
+            if fbar:
+                s = _cbrt((th * J_n[q]) / (th_n * J[q]))
+                for i in range(3):
+                    for j in range(3):
+                        Fu[p, i, j] *= s
+                factor[p] = J[q] / th
+            else:
+                factor[p] = 1.0
+
+
+@_njit
+def hex_force(tau, cell_dofs, dNdX, W, Finv, factor, f):
+    """Pass 3 on hexahedra: f[3 node + i] += sum_q (J/theta) W_q (tau F^-T)_ij Grad_j N_a (the first
+    Piola-Kirchhoff stress on the reference gradient). f (3 n_nodes,) is zeroed first [N].
+    Returns False if f is not finite."""
+    nc, nq = W.shape
+    P = np.empty((3, 3))
+    f[:] = 0.0
+    for c in range(nc):
+        for q in range(nq):
+            p = c * nq + q
+            s = factor[p] * W[c, q]
+            for i in range(3):
+                t0 = tau[p, i, 0] * s
+                t1 = tau[p, i, 1] * s
+                t2 = tau[p, i, 2] * s
+                for k in range(3):
+                    P[i, k] = t0 * Finv[p, k, 0] + t1 * Finv[p, k, 1] + t2 * Finv[p, k, 2]
+            for a in range(8):
+                d0 = dNdX[c, q, a, 0]
+                d1 = dNdX[c, q, a, 1]
+                d2 = dNdX[c, q, a, 2]
+                node = cell_dofs[c, a]
+                for i in range(3):
+                    f[3 * node + i] += P[i, 0] * d0 + P[i, 1] * d1 + P[i, 2] * d2
+    total = 0.0
+    for i in range(f.shape[0]):
+        total += f[i]
+    return math.isfinite(total)
