@@ -8,7 +8,7 @@ of the wall time and the step loop, min-max), with its radius and length against
 Richardson limit. Then the synthetic cases below.
 
     python benchmarks/bench_taylor_3d.py                 # 1000 hexes (200 steps), then 1 vs 2 ranks
-                                                         # at 102,400 hexes (20 steps each)
+                                                         # at 102,400 hexes (100 steps each)
     python benchmarks/bench_taylor_3d.py --only 5 40 200     # one case: n_r n_z steps (this process)
     mpirun -n 2 python benchmarks/bench_taylor_3d.py --only 16 400 20
 
@@ -128,7 +128,7 @@ def main():
     ap.add_argument("--only", nargs=3, type=int, metavar=("N_R", "N_Z", "STEPS"), help="one case, this process")
     ap.add_argument("--json", action="store_true", help="(with --only) print the figures as JSON")
     ap.add_argument("--small", nargs=3, type=int, default=(5, 40, 200), metavar=("N_R", "N_Z", "STEPS"))
-    ap.add_argument("--large", nargs=3, type=int, default=(16, 400, 20), metavar=("N_R", "N_Z", "STEPS"))
+    ap.add_argument("--large", nargs=3, type=int, default=(16, 400, 100), metavar=("N_R", "N_Z", "STEPS"))
     args = ap.parse_args()
     if args.only:
         r = case(*args.only)

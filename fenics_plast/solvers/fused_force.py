@@ -232,9 +232,37 @@ def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, 
     factor (n,): work arrays; theta (nc,) mean dilatation out; f (gdim n_nodes,) force out [N].
     Returns True if the stress and the force are finite.
     """
-    _cell_kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta)
-    _material_update(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, temp, dt[0], tau)
-    return _nodal_force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f)
+    return _passes(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, law, hp, yield_tol, regions, binv,
+                   eqps, temp, dt, tau, Fu, Finv, factor, theta, f)
+
+
+def _passes(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, law, hp, yield_tol, regions, binv, eqps,
+            temp, dt, tau, Fu, Finv, factor, theta, f):
+    """The three passes of :func:`internal_force` (compiled: see the overload below)."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(_passes)
+def _passes_impl(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, law, hp, yield_tol, regions, binv,
+                 eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
+    """Hexahedra of one material: block by block of cells
+    (:func:`fenics_plast.solvers.fused_force_hex.hex_passes_blocked`, the same numbers; 3-D arrays are
+    large); otherwise each pass over all cells."""
+    if Finv.ndim == 3 and isinstance(regions, types.NoneType):
+        from fenics_plast.solvers.fused_force_hex import hex_passes_blocked
+
+        def blocked(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, law, hp, yield_tol, regions, binv,
+                    eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
+            return hex_passes_blocked(u, u_n, cell_dofs, dNdX, W, fbar, model, lmbda, mu, law, hp, yield_tol, binv,
+                                      eqps, temp, dt[0], tau, Fu, Finv, factor, theta, f)
+        return blocked
+
+    def whole(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, law, hp, yield_tol, regions, binv,
+              eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
+        _cell_kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta)
+        _material_update(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, temp, dt[0], tau)
+        return _nodal_force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f)
+    return whole
 
 
 def _cell_kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta):

@@ -33,6 +33,7 @@ import basix
 import numba
 import numpy as np
 
+from fenics_plast.material import kernels
 from fenics_plast.solvers.fused_force import _cbrt
 
 _njit = numba.njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
@@ -184,12 +185,57 @@ def hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, Fu, Finv, factor, theta):
 
 @_njit
 def hex_force(tau, cell_dofs, dNdX, W, Finv, factor, f):
-    """Pass 3 on hexahedra: f[3 node + i] += sum_q (J/theta) W_q (tau F^-T)_ij Grad_j N_a (the first
-    Piola-Kirchhoff stress on the reference gradient). f (3 n_nodes,) is zeroed first [N].
+    """Pass 3 on hexahedra: f[3 node + i] = sum_q (J/theta) W_q (tau F^-T)_ij Grad_j N_a (the first
+    Piola-Kirchhoff stress on the reference gradient) [N], f (3 n_nodes,) zeroed first.
     Returns False if f is not finite."""
+    f[:] = 0.0
+    hex_force_add(tau, cell_dofs, dNdX, W, Finv, factor, f)
+    return _finite(f)
+
+
+@_njit
+def _finite(f):
+    total = 0.0
+    for i in range(f.shape[0]):
+        total += f[i]
+    return math.isfinite(total)
+
+
+#: cells per block of :func:`hex_passes_blocked`: the block's points' Fu, F^-1, tau and b_e^-1 and its
+#: cells' gradients (about 120 kB) stay in the core's cache between the three passes
+CELLS_PER_BLOCK = 32
+
+
+@_njit
+def hex_passes_blocked(u, u_n, cell_dofs, dNdX, W, fbar, model, lmbda, mu, law, hp, yield_tol, binv, eqps, temp,
+                       dt, tau, Fu, Finv, factor, theta, f):
+    """The three passes (kinematics, material update and commit, nodal force) block by block of
+    :data:`CELLS_PER_BLOCK` cells, one material (arguments as ``fused_force.internal_force``; temp
+    (n,) or a dummy (1,) array). Each cell's arithmetic and the order in which the cells add to f
+    are those of the three passes over all cells, so the result is the same to the bit; the
+    block's work arrays are read again while still in cache (the whole-mesh passes stream them
+    through memory three times, which two ranks on two cores share). Returns False if f is not finite."""
+    nc, nq = W.shape
+    no_tangent = np.empty((1, 3, 3, 3, 3))
+    per_point_temp = temp.shape[0] == binv.shape[0]
+    f[:] = 0.0
+    for c0 in range(0, nc, CELLS_PER_BLOCK):
+        c1 = min(c0 + CELLS_PER_BLOCK, nc)
+        p0, p1 = c0 * nq, c1 * nq
+        hex_kinematics(u, u_n, cell_dofs[c0:c1], dNdX[c0:c1], W[c0:c1], fbar, Fu[p0:p1], Finv[p0:p1],
+                       factor[p0:p1], theta[c0:c1])
+        T = temp[p0:p1] if per_point_temp else temp
+        kernels.update_points(model, Fu[p0:p1], binv[p0:p1], eqps[p0:p1], T, lmbda, mu, law, hp, yield_tol, dt,
+                              tau[p0:p1], binv[p0:p1], eqps[p0:p1], T, no_tangent, False)
+        hex_force_add(tau[p0:p1], cell_dofs[c0:c1], dNdX[c0:c1], W[c0:c1], Finv[p0:p1], factor[p0:p1], f)
+    return _finite(f)
+
+
+@_njit
+def hex_force_add(tau, cell_dofs, dNdX, W, Finv, factor, f):
+    """Adds the cells' nodal forces of :func:`hex_force` to f (not zeroed)."""
     nc, nq = W.shape
     P = np.empty((3, 3))
-    f[:] = 0.0
     for c in range(nc):
         for q in range(nq):
             p = c * nq + q
@@ -207,7 +253,3 @@ def hex_force(tau, cell_dofs, dNdX, W, Finv, factor, f):
                 node = cell_dofs[c, a]
                 for i in range(3):
                     f[3 * node + i] += P[i, 0] * d0 + P[i, 1] * d1 + P[i, 2] * d2
-    total = 0.0
-    for i in range(f.shape[0]):
-        total += f[i]
-    return math.isfinite(total)
