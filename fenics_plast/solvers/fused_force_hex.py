@@ -90,6 +90,21 @@ class HexGeometry:
 
 
 @_njit
+def _adjugate(A, adj):
+    """adj (3,3) = the adjugate of A (3,3) (the transposed cofactors: A adj = det A I); returns det A."""
+    adj[0, 0] = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
+    adj[0, 1] = A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]
+    adj[0, 2] = A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]
+    adj[1, 0] = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
+    adj[1, 1] = A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]
+    adj[1, 2] = A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]
+    adj[2, 0] = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
+    adj[2, 1] = A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]
+    adj[2, 2] = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+    return A[0, 0] * adj[0, 0] + A[0, 1] * adj[1, 0] + A[0, 2] * adj[2, 0]
+
+
+@_njit
 def hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, Fu, Finv, factor, theta):
     """Pass 1 on hexahedra: Fu (n,3,3) at every point, F^-1 (n,3,3), J/theta (n,), theta (nc,).
 
@@ -103,6 +118,8 @@ def hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, Fu, Finv, factor, theta):
     ue_n = np.empty((8, 3))
     F = np.empty((3, 3))
     G = np.empty((3, 3))
+    adjF = np.empty((3, 3))
+    adjG = np.empty((3, 3))
     for c in range(nc):
         for a in range(8):
             node = cell_dofs[c, a]
@@ -127,44 +144,16 @@ def hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, Fu, Finv, factor, theta):
             for i in range(3):
                 F[i, i] += 1.0
                 G[i, i] += 1.0
-            # cofactors (adjugate transposed) of F and of F_n
-            f00 = F[1, 1] * F[2, 2] - F[1, 2] * F[2, 1]
-            f01 = F[0, 2] * F[2, 1] - F[0, 1] * F[2, 2]
-            f02 = F[0, 1] * F[1, 2] - F[0, 2] * F[1, 1]
-            f10 = F[1, 2] * F[2, 0] - F[1, 0] * F[2, 2]
-            f11 = F[0, 0] * F[2, 2] - F[0, 2] * F[2, 0]
-            f12 = F[0, 2] * F[1, 0] - F[0, 0] * F[1, 2]
-            f20 = F[1, 0] * F[2, 1] - F[1, 1] * F[2, 0]
-            f21 = F[0, 1] * F[2, 0] - F[0, 0] * F[2, 1]
-            f22 = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
-            det = F[0, 0] * f00 + F[0, 1] * f10 + F[0, 2] * f20
-            g00 = G[1, 1] * G[2, 2] - G[1, 2] * G[2, 1]
-            g01 = G[0, 2] * G[2, 1] - G[0, 1] * G[2, 2]
-            g02 = G[0, 1] * G[1, 2] - G[0, 2] * G[1, 1]
-            g10 = G[1, 2] * G[2, 0] - G[1, 0] * G[2, 2]
-            g11 = G[0, 0] * G[2, 2] - G[0, 2] * G[2, 0]
-            g12 = G[0, 2] * G[1, 0] - G[0, 0] * G[1, 2]
-            g20 = G[1, 0] * G[2, 1] - G[1, 1] * G[2, 0]
-            g21 = G[0, 1] * G[2, 0] - G[0, 0] * G[2, 1]
-            g22 = G[0, 0] * G[1, 1] - G[0, 1] * G[1, 0]
-            det_n = G[0, 0] * g00 + G[0, 1] * g10 + G[0, 2] * g20
+            det = _adjugate(F, adjF)            # F^-1 = adj F / det F
+            det_n = _adjugate(G, adjG)
             J[q] = det
             J_n[q] = det_n
             ir = 1.0 / det
-            Finv[p, 0, 0] = f00 * ir
-            Finv[p, 0, 1] = f01 * ir
-            Finv[p, 0, 2] = f02 * ir
-            Finv[p, 1, 0] = f10 * ir
-            Finv[p, 1, 1] = f11 * ir
-            Finv[p, 1, 2] = f12 * ir
-            Finv[p, 2, 0] = f20 * ir
-            Finv[p, 2, 1] = f21 * ir
-            Finv[p, 2, 2] = f22 * ir
             irn = 1.0 / det_n
             for i in range(3):
-                Fu[p, i, 0] = (F[i, 0] * g00 + F[i, 1] * g10 + F[i, 2] * g20) * irn
-                Fu[p, i, 1] = (F[i, 0] * g01 + F[i, 1] * g11 + F[i, 2] * g21) * irn
-                Fu[p, i, 2] = (F[i, 0] * g02 + F[i, 1] * g12 + F[i, 2] * g22) * irn
+                for j in range(3):
+                    Finv[p, i, j] = adjF[i, j] * ir
+                    Fu[p, i, j] = (F[i, 0] * adjG[0, j] + F[i, 1] * adjG[1, j] + F[i, 2] * adjG[2, j]) * irn
             th += det * W[c, q]
             th_n += det_n * W[c, q]
             wsum += W[c, q]
