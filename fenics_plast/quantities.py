@@ -58,8 +58,8 @@ class Body:
       ``energies()`` -> dict [N mm] (explicit only).
     """
 
-    def __init__(self, comm, V, X, positions, qmap, cell_regions, reaction=None, tool_force=None,
-                 energies=None, tool_translation=None, geometry="axisymmetric"):
+    def __init__(self, comm, V, X, positions, qmap, cell_regions, *, geometry, reaction=None, tool_force=None,
+                 energies=None, tool_translation=None):
         self.comm, self.V, self.X, self.positions, self.qmap = comm, V, X, positions, qmap
         self.geometry = geometry
         self.cell_regions = cell_regions           # region name -> owned cell indices

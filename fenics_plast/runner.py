@@ -215,9 +215,9 @@ def symmetry_component(V, facet_tags, tag, where):
     raise SceneError(f"{where}: type = 'symmetry' needs {shape}; this one spans {spans}")
 
 
-def components_of(b, geometry="axisymmetric"):
+def components_of(b, geometry):
     """Indices of a [boundary] table's components in ``geometry`` (mesh.geometry): "z" is 1 in 2-D but
-    2 in 3-D, so 3-D callers must pass the geometry."""
+    2 in 3-D."""
     return [component_index(c, geometry) for c in b.components]
 
 
