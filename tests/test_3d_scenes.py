@@ -7,7 +7,8 @@
 * demos/punch_stretching_3d.toml, a quarter of the blank: punch force at 20, 30 and 40 mm within
   2 % of the axisymmetric scene's, frictionless and with mu = 0.15 (slow).
 * demos/taylor_bar_oblique.toml, the half bar striking a wall at 10 degrees: it completes with the
-  energy balance closed by the contact work, and the foot spreads away from the first contact (slow).
+  energy balance closed by the contact work, and the foot spreads away from the first contact (slow);
+  its first 5 µs equal on 1 and 2 ranks (3-D explicit contact with friction under MPI).
 """
 from __future__ import annotations
 
@@ -89,3 +90,17 @@ def test_oblique_impact_completes_with_the_contact_work_in_the_balance(tmp_path)
     # the foot spreads away from the edge that touched first (x = -R): asymmetric about the axis
     assert s["foot_max_x_mm"] > 2.0 * abs(s["foot_min_x_mm"])
     assert s["max_wall_force_x_kN"] > 0.05 * s["max_wall_force_z_kN"]
+
+
+@pytest.mark.mpi
+def test_oblique_impact_serial_equals_two_ranks(tmp_path):
+    """3-D explicit penalty contact with friction (plane tool, two pairs) under MPI: the first 5 µs of
+    the oblique impact give the same wall force, foot, energies and contact work on 1 and 2 ranks."""
+    sets = ("analysis.end_time=5", *QUIET)
+    one = run_scene(DEMOS / "taylor_bar_oblique.toml", tmp_path / "one", *sets)
+    two = run_scene(DEMOS / "taylor_bar_oblique.toml", tmp_path / "two", *sets, np_ranks=2)
+    assert two["mpi_ranks"] == 2 and two["steps"] == one["steps"]
+    assert one["contact_work_J"] > 0.1 and one["max_wall_force_z_kN"] > 10.0
+    for k in ("wall_force_z_kN", "wall_force_x_kN", "foot_min_x_mm", "foot_max_x_mm", "length_mm", "max_eqps",
+              "kinetic_energy_J", "plastic_dissipation_J", "contact_work_J"):
+        assert two[k] == pytest.approx(one[k], rel=1e-9, abs=1e-12), k
