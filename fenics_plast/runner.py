@@ -72,7 +72,8 @@ def read_mesh(problem, comm):
         raise SceneError(f"{where}: {dotted} = {name!r} is not a {kind} of the mesh: the mesh's "
                          f"{'facet groups' if dim == fdim else 'regions'} are {', '.join(have) or 'none'}")
     for n, b in problem.boundary.items():
-        need(f"boundary.{n}.group", b.group, fdim)
+        if b.group is not None:                 # (a wall without group stops every node)
+            need(f"boundary.{n}.group", b.group, fdim)
     for n, c in problem.contact.items():
         need(f"contact.{n}.group", c.group, fdim)
     for n, o in problem.outputs.items():

@@ -4,8 +4,9 @@ Boundary conditions are velocity constraints: ``fixed``, ``axis`` and ``symmetry
 at zero velocity (sliding supports; in 3-D scenes, ``problem.mesh.geometry == "3d"`` on a hexahedral
 mesh, components x, y, z and symmetry planes normal to x, y or z, as :mod:`fenics_plast.runner`
 resolves them: ``components_of``, ``symmetry_component``); ``velocity`` and ``displacement``
-prescribe a component as a function of time. ``traction`` and ``pressure`` are dead loads. Times in
-scene files are in µs.
+prescribe a component as a function of time. ``traction`` and ``pressure`` are dead loads. ``wall``
+is a rigid plane the nodes cannot pass (:mod:`fenics_plast.solvers.walls`). Times in scene files are
+in µs.
 History rows are ``output.history_points`` equally spaced times (time_us + the declared outputs).
 """
 from __future__ import annotations
@@ -30,10 +31,12 @@ US = 1e-6
 
 def velocity_constraints(problem, V, ft, groups):
     """Homogeneous velocity constraints [(component, facets)] and the prescribed motions
-    [(component, facets, kind, value)] of [boundary]."""
+    [(component, facets, kind, value)] of [boundary] (walls: :func:`add_walls`)."""
     zero, moving, loads = [], [], []
     geometry = problem.mesh.geometry          # "z" is component 1 in 2-D, 2 in 3-D
     for name, b in problem.boundary.items():
+        if b.type == "wall":
+            continue
         tag = groups[b.group][1]
         facets = ft.find(tag)
         where = f"{problem.path}: boundary.{name}"
@@ -58,6 +61,21 @@ def velocity_constraints(problem, V, ft, groups):
     return zero, moving, loads
 
 
+def add_walls(problem, solver, ft, groups):
+    """The rigid walls of [boundary] (type "wall") on ``solver``: every node, or the nodes of the
+    wall's facet group."""
+    for name, b in problem.boundary.items():
+        if b.type != "wall":
+            continue
+        nodes = None
+        if b.group is not None:
+            nodes = fem.locate_dofs_topological(solver.V, solver.mesh.topology.dim - 1, ft.find(groups[b.group][1]))
+        try:
+            solver.add_wall(components_of(b, problem.mesh.geometry)[0], b.position, nodes, name=f"boundary.{name}")
+        except ValueError as e:
+            raise SceneError(f"{problem.path}: {e}") from None
+
+
 def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
     """The explicit solver of ``problem`` with its constraints, loads, contact pairs and initial
     velocity, ready to ``run``: a namespace of ``solver``, ``material``, ``tools`` (name -> tool),
@@ -71,7 +89,8 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
     zero, moving, loads = velocity_constraints(problem, V, ft, groups)
     solver = ExplicitDynamics(mesh, kin, material, density, zero, element=problem.mesh.element,
                               log=log if log is not None else (lambda m: None), internal_force=ana.internal_force,
-                              stable_step=ana.stable_step)
+                              stable_step=ana.stable_step, erosion_ratio=ana.erosion_ratio)
+    add_walls(problem, solver, ft, groups)
     for c, facets, kind, val, name in moving:
         dofs = fem.locate_dofs_topological(solver.V, mesh.topology.dim - 1, facets)
         f = (lambda v: (lambda t: float(v.evaluate(t=t / US))))(val)
@@ -147,6 +166,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
             cols = quantities.row(t / US)
             if scaling:
                 cols.update(mass_scaling_columns(s))
+            cols.update(wall_erosion_columns(s))
             output.history(time_us=t / US, **cols)
         if xf is not None and (state["row"] % every == 0 or t >= end_time * (1 - 1e-12) or state.get("stop")):
             state["eqps"] = s.qmap.cell_mean(s.qmap.eqps, name="eqps", out=state["eqps"])
@@ -156,6 +176,9 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
                 state["temperature"] = s.qmap.cell_mean(s.qmap.temperature, name="temperature",
                                                         out=state["temperature"])
                 xf.write_function(state["temperature"], t / US)
+            if s.erosion_ratio > 0.0:   # 1 on the eroded cells (a Threshold in ParaView hides them)
+                state["eroded"] = eroded_field(s, state.get("eroded"))
+                xf.write_function(state["eroded"], t / US)
         state["row"] += 1
 
     bar = output.progress(end_time / US, problem.name, what="t", unit="us")
@@ -181,6 +204,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
             m = solver.mass_scaling_stats()
             e.results.update(added_mass_kg=m["added_mass"] * 1e3, added_mass_fraction=m["fraction"],
                              mass_scaled_cells=m["cells"], max_mass_scale_factor=m["max_factor"])
+        e.results.update(wall_erosion_columns(solver))
         raise
     finally:
         if xf is not None:
@@ -202,6 +226,13 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
                    mass_scaled_cells=m["cells"], max_mass_scale_factor=m["max_factor"],
                    added_mass_kinetic_energy_J=m["kinetic"] * 1e-3, mass_scaling_energy_J=m["energy"] * 1e-3)
         res["info_results"] = list(res["info_results"]) + ["added_mass_fraction", "mass_scaled_cells"]
+    res.update(wall_erosion_columns(solver))
+    if solver.erosion_ratio > 0.0:
+        res.update(erosion_ratio=solver.erosion_ratio, eroded_mass_fraction=solver.erosion_stats()["mass_fraction"],
+                   eroded_cell_list=[dict(cell=c, reference_centre_mm=x) for c, x in solver.eroded_cells()])
+        res["info_results"] = list(res["info_results"]) + ["eroded_cells", "eroded_volume_fraction"]
+    if solver.walls.active:
+        res["info_results"] = list(res["info_results"]) + ["wall_energy_J"]
     if pairs:
         # the contact terms of the balance (energy_balance_error includes them) and, per pair, the
         # largest penetration of the run and its penalty; the springs' stable-step limit (collective calls)
@@ -228,4 +259,27 @@ def mass_scaling_columns(solver) -> dict:
                 mass_scaling_energy_J=m["energy"] * 1e-3)
 
 
-__all__ = ["run_explicit", "velocity_constraints", "mass_scaling_columns"]
+def wall_erosion_columns(solver) -> dict:
+    """The history columns of the rigid walls (the kinetic energy their stops took [J]) and of element
+    erosion (eroded cells, their fraction of the body's volume), each when the scene has them
+    (collective)."""
+    cols = {}
+    if solver.walls.active:
+        cols["wall_energy_J"] = solver.walls.energy() * 1e-3
+    if solver.erosion_ratio > 0.0:
+        e = solver.erosion_stats()
+        cols.update(eroded_cells=e["cells"], eroded_volume_fraction=e["volume_fraction"])
+    return cols
+
+
+def eroded_field(solver, out=None):
+    """DG0 function "eroded": 1 on the eroded cells, 0 elsewhere (``out``: reused)."""
+    if out is None:
+        out = fem.Function(fem.FunctionSpace(solver.mesh, ("DG", 0)), name="eroded")
+    dofs = out.function_space.dofmap.list.array.reshape(-1)[: solver.n_cells_own]
+    out.x.array[dofs] = (solver.alive == 0).astype(float)
+    out.x.scatter_forward()
+    return out
+
+
+__all__ = ["run_explicit", "velocity_constraints", "mass_scaling_columns", "wall_erosion_columns", "add_walls"]

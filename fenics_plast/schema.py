@@ -195,6 +195,14 @@ SCHEMA: dict[str, Table] = {
                                    "brings are in history.csv and summary.json, and in the energy balance. The "
                                    "step used is dt_safety x the stable step. 0: off.", "µs",
                                    when={"type": EXPLICIT}, scale=US, **_nonneg()),
+            "erosion_ratio": Key("float", 0.0, "Element erosion: a cell whose smallest quadrature-point "
+                                 "Jacobian falls below this fraction of its mean dilatation (a cell about to "
+                                 "fold, which no time step or mass scaling prevents) is removed: it adds no "
+                                 "force and no stable-step limit, its points keep their state (frozen), its "
+                                 "nodes keep their mass. The eroded cells and their volume fraction are in "
+                                 "history.csv, summary.json and fields.xdmf (eroded = 1). 0: off (the run "
+                                 "stops at a folded cell).", "",
+                                 when={"type": EXPLICIT}, lo=0.0, lo_open=False, hi=1.0),
         }),
     "mesh": Table(
         "The mesh: a Gmsh `.geo` file (meshed when the run starts, with `[mesh.parameters]` set as its "
@@ -278,16 +286,24 @@ SCHEMA: dict[str, Table] = {
         "Boundary conditions and loads, one table per name, each on a Gmsh facet group. Static: t is the "
         "pseudo-time; explicit: t is the time in µs. Values: " + _VALUE_DOC + ".",
         collection=True, discriminator="type", keys={
-            "group": Key("str", REQUIRED, "Gmsh physical curve (3-D: surface) name, a facet group."),
+            "group": Key("str", OPTIONAL, "Gmsh physical curve (3-D: surface) name, a facet group. Required "
+                         "for every type but wall, where it names the nodes the wall stops (absent: every "
+                         "node)."),
             "type": Key("str", REQUIRED, "fixed: components held at 0; displacement: prescribed [mm]; velocity "
                         "(explicit): prescribed [m/s]; traction: dead load [MPa] per reference area; pressure: "
                         "normal dead load [MPa], positive pushes into the body; symmetry: the normal component "
                         "held at 0 (the group must lie in a line (2-D) or plane (3-D) normal to x, y or z); axis: "
-                        "u_r = 0 (axisymmetric only).",
-                        choices=("fixed", "displacement", "velocity", "traction", "pressure", "symmetry", "axis")),
+                        "u_r = 0 (axisymmetric only); wall (explicit): a rigid frictionless plane normal to "
+                        "`components` at `position` that the nodes cannot pass (a node that reaches it stops "
+                        "there and may leave it again; the kinetic energy the stops take is wall_energy_J, a "
+                        "term of the energy balance). The body starts on one side of it.",
+                        choices=("fixed", "displacement", "velocity", "traction", "pressure", "symmetry", "axis",
+                                 "wall")),
             "components": Key("strs", REQUIRED, "Components: x, y (also r, z in 2-D: r = x, z = y); x, y, z "
-                              "in 3-D.",
-                              when={"type": ("fixed", "displacement", "velocity", "traction")}),
+                              "in 3-D. A wall takes one: the axis its plane is normal to.",
+                              when={"type": ("fixed", "displacement", "velocity", "traction", "wall")}),
+            "position": Key("float", REQUIRED, "The wall's plane: its coordinate along its component.", "mm",
+                            when={"type": ("wall",)}),
             "value": Key("values", REQUIRED, "One value per component (a list), or one value for all.",
                          when={"type": ("displacement", "velocity", "traction", "pressure")}),
         }),

@@ -343,6 +343,9 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
     geometry = t["mesh"].geometry
     dim = vector_size(geometry)
     _geometry_checks(t, v, geometry)
+    if explicit and ana.erosion_ratio > 0.0 and ana.internal_force != "fused":
+        v.fail(f"analysis.erosion_ratio = {_fmt(ana.erosion_ratio)} needs analysis.internal_force = 'fused': "
+               f"element erosion is a part of the compiled force pass")
     if not explicit and ana.min_increment > ana.max_increment:
         v.fail(f"analysis.min_increment = {_fmt(ana.min_increment)} is out of range: must not exceed "
                f"analysis.max_increment = {_fmt(ana.max_increment)}")
@@ -387,8 +390,15 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
                 v.fail(f"{d}.stress = {list(sig)} is out of range: each entry must be >= 0")
     for n, b in t["boundary"].items():
         d = f"boundary.{n}"
+        if b.group is None and b.type != "wall":
+            v.fail(f"{d}.group is missing: required (a facet group) for type = {b.type!r}")
         if b.type == "velocity" and not explicit:
             v.fail(f"{d}.type = 'velocity' is only for explicit analyses (static: type = 'displacement')")
+        if b.type == "wall" and not explicit:
+            v.fail(f"{d}.type = 'wall' is only for explicit analyses (static: a contact pair with a plane tool)")
+        if b.type == "wall" and len(b.components) != 1:
+            v.fail(f"{d}.components = {list(b.components)}: a wall takes one component, the axis its plane is "
+                   f"normal to")
         if b.type == "axis" and t["mesh"].geometry != "axisymmetric":
             v.fail(f"{d}.type = 'axis' needs mesh.geometry = 'axisymmetric'")
         comps = b.get("components")

@@ -41,8 +41,8 @@ STUDIES: dict[str, tuple[str, list[str]]] = {
     "taylor_dt": (TAYLOR, ["--vary", "analysis.dt_safety=0.3,0.5,0.8,1.0"]),
     "taylor_model": (TAYLOR, ["--vary", "materials.copper.model=isochoric,seed", "--vary", "mesh.refine=1,2"]),
     "taylor_velocity": (TAYLOR, ["--vary", "initial_velocity.bar.value=" + ",".join(
-        f"[0.0,-{v:.1f}]" for v in (100, 150, 227, 300, 400)), "--vary", "analysis.stable_step=size,element",
-        "--vary", "analysis.mass_scaling_dt=0,0.02"]),
+        f"[0.0,-{v:.1f}]" for v in (100, 150, 227, 300, 400)), "--vary", "analysis.mass_scaling_dt=0,0.005,0.02",
+        "--set", "analysis.erosion_ratio=0.1"]),
     "taylor_graded": (ACCURATE, ["--vary", "mesh.parameters.axial_size_ratio=1,4,16", "--vary",
                                  "mesh.parameters.radial_size_ratio=1,4", "--vary", "analysis.stable_step=size,element"]),
     "taylor_accurate": (ACCURATE, ["--vary", "mesh.refine=1,2,4", "--vary", "analysis.dt_safety=0.8,1.0"]),

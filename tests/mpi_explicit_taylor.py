@@ -2,7 +2,9 @@
 .npz file (scalars plus the displacement field gathered on rank 0 and sorted by node position),
 so that serial and ``mpirun -n 2`` runs can be compared.
 
-    python tests/mpi_explicit_taylor.py OUT.npz [END_TIME_US] [MODEL]
+    python tests/mpi_explicit_taylor.py OUT.npz [END_TIME_US] [MODEL] [KEY=VALUE ...]
+
+(KEY=VALUE: further scene overrides, as --set.)
 """
 import sys
 from pathlib import Path
@@ -25,11 +27,12 @@ def main():
     comm = MPI.COMM_WORLD
     problem = load_problem(REPO / "demos" / "taylor_bar.toml",
                            [f"analysis.end_time={end_us}", f"materials.copper.model={model}",
-                            "output.history_points=3"])
+                            "output.history_points=3", *sys.argv[4:]])
     b = build_explicit(problem, comm)
     s, ana = b.solver, problem.analysis
     stats = s.run(ana.end_time, dt_safety=ana.dt_safety, steps=ana.time_steps,
-                  rows=problem.output.history_points, progress=0)
+                  rows=problem.output.history_points, progress=0, mass_scaling_dt=ana.mass_scaling_dt)
+    eroded = s.erosion_stats()["cells"]
     res = Quantities(problem.outputs, b.body, b.facet_tags, b.groups).row(end_us)
     e = s.energies()
     n_nodes = s.V.dofmap.index_map.size_local
@@ -44,7 +47,7 @@ def main():
         np.savez(out, X=X[order], u=u[order], length_mm=res["length_mm"], radius_mm=res["radius_mm"],
                  max_eqps=res["max_eqps"], steps=stats["steps"], kinetic=e["kinetic"],
                  internal_work=e["internal_work"], elastic=e["elastic"], balance_error=e["balance_error"],
-                 ranks=comm.size)
+                 wall=e["wall"], eroded_cells=eroded, ranks=comm.size)
 
 
 if __name__ == "__main__":

@@ -50,7 +50,7 @@ def test_prescribed_velocity_reaction_and_work(geometry):
     top = s.boundary_dofs(ft.find(tags["top"]))
     k = s.add_prescribed_velocity(1, top, lambda t: V0 * min(t / tr, 1.0), name="top")
     T = 1.5 * L / C
-    s.run(T, rows=2, progress=0)
+    stats = s.run(T, rows=2, progress=0)
     A = area(geometry)
     Fx, Fy = s.reaction(k)
     assert Fx == 0.0
@@ -62,7 +62,10 @@ def test_prescribed_velocity_reaction_and_work(geometry):
     assert abs(e["kinetic"] + e["internal_work"] - W) < 0.01 * W
     assert e["balance_error"] < 0.01
     lo, hi = top_values(s, top, s.u.x.array)
-    assert lo == pytest.approx(V0 * (T - tr / 2), rel=1e-6) and hi == pytest.approx(lo, rel=1e-12)
+    # the half-step velocities are V at the midpoints: exact but on the step that holds the ramp's
+    # kink, where the midpoint rule errs by at most (V0 / tr) dt^2 / 8
+    kink = V0 / tr * stats["dt_max"] ** 2 / 8
+    assert abs(lo - V0 * (T - tr / 2)) <= kink and hi == pytest.approx(lo, rel=1e-12)
     lo, hi = top_values(s, top, s.v.x.array)
     assert lo == hi == V0
 

@@ -102,7 +102,7 @@ def test_collapse_stops_through_the_floor(tmp_path):
     assert s["collapse_cell_size_mm"] / (s["wave_speed_m_s"] * 1e3) == pytest.approx(s["dt_stable_final_s"],
                                                                                         rel=1e-9)
     assert s["collapse_cell_reference_mm"][0] < 0.6          # the innermost column, along the axis
-    assert s["collapse_cell_max_angle_deg"] > 170.0
+    assert s["collapse_cell_max_angle_deg"] > 150.0            # a wedge
     assert s["collapse_cell_dt_element_s"] > 10 * s["dt_stable_final_s"]
     assert s["step_loop_time_s"] < 30.0                     # stopped within seconds, not crawling
     # every declared output at the stop, and the run statistics
@@ -243,14 +243,14 @@ def test_checkpoint_carries_the_added_mass(tmp_path):
     sa, sb = (json.loads((d / "summary.json").read_text()) for d in (ref, res))
     assert sb["resumed_from_checkpoint"] == 80
     for k in ("added_mass_kg", "added_mass_fraction", "mass_scaling_energy_J", "added_mass_kinetic_energy_J",
-              "radius_mm", "length_mm", "energy_balance_error"):
-        assert sb[k] == pytest.approx(sa[k], rel=1e-10), k
+              "radius_mm", "length_mm", "energy_balance_error", "wall_energy_J"):
+        assert sb[k] == pytest.approx(sa[k], rel=1e-10, abs=1e-20), k
     assert sb["mass_scaled_cells"] == sa["mass_scaled_cells"] > 0 and sb["steps"] == sa["steps"]
     a, b = np.load(tmp_path / "ref.npz"), np.load(tmp_path / "res.npz")
     assert np.abs(a["u"] - b["u"]).max() <= 1e-10
     head = (res / "history.csv").read_text().splitlines()[0].split(",")
-    assert head[-5:] == ["added_mass_kg", "added_mass_fraction", "mass_scaled_cells",
-                         "added_mass_kinetic_energy_J", "mass_scaling_energy_J"]
+    assert head[-6:] == ["added_mass_kg", "added_mass_fraction", "mass_scaled_cells",
+                         "added_mass_kinetic_energy_J", "mass_scaling_energy_J", "wall_energy_J"]
 
 
 # ----------------------------------------------------------------------------------------------

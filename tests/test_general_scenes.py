@@ -70,7 +70,13 @@ def test_punch_with_friction_reproduces_the_kind_runner(tmp_path, mu):
         assert s[k] == v, k
 
 
-#: per-kind runner, demos/taylor_bar.toml (isochoric, 6 x 36 cells, 227 m/s, 80 us)
+#: per-kind runner, demos/taylor_bar.toml (isochoric, 6 x 36 cells, 227 m/s, 80 us). The explicit
+#: solver now cuts each history-row interval into equal steps (the kind runner put a long step and a
+#: sliver before each row, which can resonate: DESIGN.md, "Explicit time step"): the time
+#: discretisation moves length and radius by < 1e-4, max eqps by 5e-4, the residual kinetic energy
+#: by 2.4e-3, and the step count by 0.6 %.
+TAYLOR_RTOL = {"length_mm": 2e-4, "radius_mm": 2e-4, "max_eqps": 1e-3, "plastic_dissipation_J": 1e-3,
+               "kinetic_energy_J": 5e-3}
 TAYLOR = {"length_mm": 21.453719829605348, "radius_mm": 7.083304489612052, "max_eqps": 3.1152864985804913,
           "plastic_dissipation_J": 236.01018388079393, "kinetic_energy_J": 0.13334036490360324}
 
@@ -79,8 +85,9 @@ TAYLOR = {"length_mm": 21.453719829605348, "radius_mm": 7.083304489612052, "max_
 def test_taylor_bar_reproduces_the_kind_runner(tmp_path, np_ranks):
     # the kind runner took the size estimate h / c of the stable step ("element" is the default now)
     s = run_scene(DEMOS / "taylor_bar.toml", tmp_path / "taylor", "analysis.stable_step=size", np_ranks=np_ranks)
-    assert_close(s, TAYLOR)
-    assert s["steps"] == 9360
+    for k, v in TAYLOR.items():
+        assert s[k] == pytest.approx(v, rel=TAYLOR_RTOL[k]), k
+    assert s["steps"] == pytest.approx(9360, rel=0.01)
     assert s["energy_balance_error"] < 1e-3
     assert s["references"]["radius_mm"] == {"value": 7.11, "source": "seed paper, Table 3"}
     for png in ("shape.png", "size.png", "energy.png"):
@@ -88,11 +95,11 @@ def test_taylor_bar_reproduces_the_kind_runner(tmp_path, np_ranks):
 
 
 def test_taylor_bar_default_element_step_keeps_the_answer_in_fewer_steps(tmp_path):
-    """The default stable step (the cell's element step where larger than h / c) moves the kind
-    runner's radius, length and max eqps by less than 1e-5 and saves a quarter of the steps."""
+    """The default stable step (the cell's element step where larger than h / c) keeps the kind
+    runner's radius, length and max eqps (to the tolerances above) and saves a quarter of the steps."""
     s = run_scene(DEMOS / "taylor_bar.toml", tmp_path / "taylor", "output.plots=false", "output.xdmf=false")
     for k in ("length_mm", "radius_mm", "max_eqps"):
-        assert s[k] == pytest.approx(TAYLOR[k], rel=1e-5), k
+        assert s[k] == pytest.approx(TAYLOR[k], rel=TAYLOR_RTOL[k]), k
     assert s["steps"] < 0.8 * 9360
     assert s["energy_balance_error"] < 1e-3
 

@@ -30,7 +30,7 @@ needs_serial = pytest.mark.skipif(not SERIAL, reason="starts its own processes")
 TAYLOR_KEYS = ["length_mm", "radius_mm", "max_eqps"]
 TAYLOR_INFO = ["kinetic_energy_J", "max_kinetic_energy_J", "elastic_energy_J", "max_elastic_energy_J",
                "plastic_dissipation_J", "max_plastic_dissipation_J", "external_work_J", "max_external_work_J",
-               "energy_balance_error", "max_energy_balance_error"]
+               "energy_balance_error", "max_energy_balance_error", "wall_energy_J"]
 #: the Taylor bar to 5 us
 SHORT = ["analysis.end_time=5", "output.history_points=3"]
 

@@ -7,6 +7,8 @@
   (quadrilaterals) or where it is computed (hexahedra); the minimum over the cells and the ranks,
   combined with the contact springs' limit (:meth:`CellSteps.stable_dt`).
 * Selective mass scaling (:meth:`CellSteps.scale_mass`, :meth:`CellSteps.mass_scaling_stats`).
+* What element erosion has removed (:meth:`CellSteps.erosion_stats`, :meth:`CellSteps.eroded_cells`):
+  the compiled force pass erodes the cells (``alive``); an eroded cell sets no stable step.
 
 ``CellSteps`` reads the solver's attributes set in ``ExplicitDynamics.__init__``: the mesh data
 (``_X``, ``_cell_nodes``, ``_cell_dofs``, ``geometry``, ``three_d``, ``kin``, ``element``), the
@@ -38,8 +40,8 @@ class CellSteps:
         """The size estimate of each owned cell's stable step on the current (deformed) mesh [s]:
         sqrt(s) h / c, h the cell's smallest edge or altitude (hexahedra: kappa V / A_max, see
         :mod:`~fenics_plast.solvers.hex_step`), c its material's dilatational wave speed, s its
-        mass-scaling density factor (1 without). A work buffer, overwritten by the next
-        call; ``self._xbuf`` holds the current node positions afterwards."""
+        mass-scaling density factor (1 without); inf for an eroded cell. A work buffer, overwritten by
+        the next call; ``self._xbuf`` holds the current node positions afterwards."""
         np.add(self._X, self.u.x.array.reshape(-1, self.bs), out=self._xbuf)
         if self.three_d:        # kappa V / A_max (hex_step.py: kappa, the cube's breathing mode)
             h = hex_step.hex_size(self._xbuf, self._cell_dofs, self._hbuf)
@@ -49,6 +51,8 @@ class CellSteps:
         np.divide(h, self.c if self._cell_c is None else self._cell_c, out=h)
         if self.mass_scaled:
             np.multiply(h, self._sqrt_scale, out=h)
+        if self.erosion_ratio > 0.0:
+            h[self.alive == 0] = np.inf
         return h
 
     def _eig_dt(self, cells):
@@ -209,3 +213,22 @@ class CellSteps:
         smax = self._reduce(float(self.cell_scale.max()) if self.cell_scale.size else 1.0, MPI.MAX)
         return dict(added_mass=float(tot[0]), body_mass=float(tot[1]), fraction=float(tot[0] / tot[1]),
                     cells=int(round(tot[2])), max_factor=smax, kinetic=float(tot[3]), energy=float(tot[4]))
+
+    # -- element erosion --------------------------------------------------------------------------
+    def erosion_stats(self):
+        """What element erosion has removed so far (collective): cells (eroded cells), volume_fraction
+        (their reference volume over the body's) and mass_fraction (their share of the unscaled lumped
+        mass over the body's)."""
+        dead = self.alive == 0
+        loc = np.array([float(np.count_nonzero(dead)), float(self.geometry.W[dead].sum()),
+                        float(self.geometry.W.sum()), float(self._cell_mass[dead].sum()),
+                        float(self._cell_mass.sum())])
+        tot = self.comm.allreduce(loc, op=MPI.SUM) if self.comm.size > 1 else loc
+        return dict(cells=int(round(tot[0])), volume_fraction=float(tot[1] / tot[2]),
+                    mass_fraction=float(tot[3] / tot[4]))
+
+    def eroded_cells(self):
+        """[(original cell index, reference centre [mm])] of the eroded cells, all ranks (collective)."""
+        loc = [(int(self.mesh.topology.original_cell_index[i]), self._X[self._cell_dofs[i]].mean(axis=0).tolist())
+               for i in np.flatnonzero(self.alive == 0)]
+        return sorted(c for part in (self.comm.allgather(loc) if self.comm.size > 1 else [loc]) for c in part)

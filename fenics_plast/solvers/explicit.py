@@ -82,6 +82,7 @@ from fenics_plast.solvers import time_integration as ti
 from fenics_plast.solvers.cell_steps import _QUAD_CYCLE, CellSteps
 from fenics_plast.solvers.collapse import collapse_error
 from fenics_plast.solvers.explicit_contact import ContactSet
+from fenics_plast.solvers.walls import RigidWalls
 
 
 class ExplicitDynamics(CellSteps):
@@ -99,10 +100,14 @@ class ExplicitDynamics(CellSteps):
         expression + QuadratureMap + dolfinx assembly of the UFL form); same numbers, see module doc.
     stable_step : "element" (the larger of h / c and the cell's elastic element step 2 / omega_max)
         or "size" (h / c of each cell), see :meth:`stable_dt`.
+    erosion_ratio : element erosion (fused route only): a cell whose smallest quadrature-point
+        Jacobian falls below this fraction of its mean dilatation (about to fold) is eroded: its points
+        keep their state and stress, it adds no force and no stable-step limit, its nodes keep their
+        mass (``alive``, :meth:`erosion_stats`). 0: off.
 
     Drivers are added after construction and before the first step (collective calls):
     :meth:`add_prescribed_velocity`, :meth:`add_prescribed_displacement`, :meth:`add_external_force`,
-    :meth:`add_traction`, :meth:`add_contact`. Prescribed sets are a component of a set of nodes
+    :meth:`add_traction`, :meth:`add_contact`, :meth:`add_wall`. Prescribed sets are a component of a set of nodes
     (block indices of ``V``, :meth:`boundary_dofs`); nodal vectors (loads, masses, ``u.x.array``)
     are unrolled, entry ``2 node + component``.
     """
@@ -111,7 +116,8 @@ class ExplicitDynamics(CellSteps):
     STABLE_STEPS = ("size", "element")
 
     def __init__(self, mesh, kin, material, density, velocity_bcs=(), element="q1p0",
-                 reestimate_every=10, log=None, internal_force="fused", stable_step="element"):
+                 reestimate_every=10, log=None, internal_force="fused", stable_step="element",
+                 erosion_ratio=0.0):
         if element not in ("q1p0", "q1"):
             raise ValueError(f"element must be 'q1p0' or 'q1', got {element!r}")
         if internal_force not in self.INTERNAL_FORCE_ROUTES:
@@ -123,6 +129,11 @@ class ExplicitDynamics(CellSteps):
         if stable_step not in self.STABLE_STEPS:
             raise ValueError(f"stable_step must be one of {self.STABLE_STEPS}, got {stable_step!r}")
         self.stable_step = stable_step
+        if not 0.0 <= erosion_ratio < 1.0:
+            raise ValueError(f"erosion_ratio must lie in [0, 1), got {erosion_ratio}")
+        if erosion_ratio > 0.0 and internal_force != "fused":
+            raise ValueError("element erosion (erosion_ratio > 0) is of the fused internal-force pass only")
+        self.erosion_ratio = float(erosion_ratio)
         self.internal_force_route = internal_force
         self.fused = internal_force == "fused"
         self.mesh, self.kin, self.material = mesh, kin, material
@@ -174,6 +185,8 @@ class ExplicitDynamics(CellSteps):
             points, weights = fused_force.quadrature(kin.degree)        # the rule of kin.dx and QuadratureMap
             self.geometry = fused_force.CellGeometry(self._X[cell_nodes], points, weights, kin.axisymmetric)
 
+        self.alive = np.ones(self.n_cells_own, dtype=np.uint8)      # 0: eroded cell (erosion_ratio)
+        self._eroded_seen = 0                                       # eroded cells already reported
         vt = ufl.TestFunction(V)
         if self.fused:
             self._setup_fused(kin)
@@ -223,6 +236,7 @@ class ExplicitDynamics(CellSteps):
         self._setup_cell_masses()
         # drivers: contact pairs, prescribed motion and loads (and the steps that integrate them)
         self.contact = ContactSet(self)
+        self.walls = RigidWalls(self)
         self.drivers = ti.Drivers(self)
         self.timings["setup_s"] = time.perf_counter() - t0
 
@@ -252,7 +266,8 @@ class ExplicitDynamics(CellSteps):
         # the arguments of fused_force.internal_force: persistent arrays, updated in place
         regions = self.material.point_layout(q.nq) if self.regions else None
         self._force_args = (self.u.x.array, self.u_n.x.array, self._cell_nodes, g.dNdX, g.N, g.Rinv, g.W,
-                            self.element == "q1p0", *self.material.kernel_args(), regions, q.binv, q.eqps,
+                            self.element == "q1p0", self.alive, self.erosion_ratio, *self.material.kernel_args(),
+                            regions, q.binv, q.eqps,
                             q.temperature, q.dt, q.tau_values, self._Fu, self._Finv, self._factor,
                             self.theta_cells, self._f_all)
 
@@ -379,6 +394,12 @@ class ExplicitDynamics(CellSteps):
                                 tangential_penalty=tangential_penalty, name=name)
 
     # ------------------------------------------------------------------------------------------
+    def add_wall(self, component, position, nodes=None, name=None):
+        """A rigid frictionless wall x_component = position [mm] that ``nodes`` (local node indices;
+        None: every node) cannot pass (:class:`~fenics_plast.solvers.walls.RigidWalls`; collective)."""
+        self._before_start("walls")
+        self.walls.add(component, position, nodes, name)
+
     def _update_theta(self):
         b = self._b_theta
         with b.localForm() as bl:
@@ -437,7 +458,8 @@ class ExplicitDynamics(CellSteps):
         n = self.n_own
         v = self.v.x.array
         # half-step velocity, displacement increment (u_n keeps the previous u, ghosts included)
-        w_old = ti.kick_drift(v, self.a, self.f, self.du, self.u.x.array, self.u_n.x.array, dt, n)
+        w_old = ti.kick_drift(v, self.a, self.f, self.du, self.u.x.array, self.u_n.x.array, dt, n, self.mass,
+                              self.walls.args)
         if self.theta is not None:
             self.theta_n.x.array[:] = self.theta.x.array
         if self.comm.size > 1:
@@ -445,7 +467,7 @@ class ExplicitDynamics(CellSteps):
         self._internal_force()
         # trapezoidal work of the internal forces. Constrained dofs have du = 0 (homogeneous
         # velocity BCs: fixed sliding walls), so the support reactions do no work: W_ext stays 0.
-        w_new = ti.kick(v, self.a, self.f, self.free_minv, self.du, dt, n)
+        w_new = ti.kick(v, self.a, self.f, self.free_minv, self.du, dt, n, self.mass, self.walls.args)
         self.W_int += 0.5 * (w_old + w_new)
         self.t += dt
         self.step_count += 1
@@ -459,7 +481,7 @@ class ExplicitDynamics(CellSteps):
         else:
             work = np.array([self.W_int])
             done, ok = ti.advance(nsteps, dt, self.v.x.array, self.a, self.free_minv, self.du,
-                                  self.n_own, self._force_args, work)
+                                  self.n_own, self._force_args, work, self.mass, self.walls.args)
             self.W_int = float(work[0])
         for _ in range(done):
             self.t += dt
@@ -478,7 +500,8 @@ class ExplicitDynamics(CellSteps):
         [N mm], E0_stored, and per contact pair its nodal history (contact<i>: t_n, N_n, p_n, t,
         f_c) and accumulators (contact<i>_acc, contact<i>_pen). Once selective mass scaling has added
         mass: the nodal mass [tonne] (by dof), the cells' density factors cell_scale (by cell) and
-        the summed E_mass [N mm]."""
+        the summed E_mass [N mm]. With walls: their summed energy E_wall [N mm]; with element erosion:
+        the cells' ``alive`` flags (by cell)."""
         from fenics_plast.checkpoint import Keyed, owned_keyed
         kv, kq = self._checkpoint_keys()
         n = self.n_own
@@ -498,6 +521,11 @@ class ExplicitDynamics(CellSteps):
             d.update(mass=Keyed(self.mass.copy(), kv[:n]),
                      cell_scale=Keyed(self.cell_scale.copy(), cell_keys(self.mesh)[: self.n_cells_own]),
                      E_mass=self._reduce(self.E_mass, MPI.SUM))
+        if self.walls.active:
+            d.update(E_wall=self.walls.energy())
+        if self.erosion_ratio > 0.0:
+            from fenics_plast.checkpoint import cell_keys
+            d.update(alive=Keyed(self.alive.astype(float), cell_keys(self.mesh)[: self.n_cells_own]))
         return d
 
     def _checkpoint_keys(self):
@@ -514,6 +542,8 @@ class ExplicitDynamics(CellSteps):
         keys += ["theta", "theta_n"] if self.theta is not None else []
         keys += ["temperature"] if self.qmap.thermal else []
         keys += self.drivers.required_keys() if self.has_drivers else []
+        keys += ["E_wall"] if self.walls.active else []
+        keys += ["alive"] if self.erosion_ratio > 0.0 else []
         ck.require(d, keys, "explicit solver")
         kv, kq = self._checkpoint_keys()
         n = self.n_own
@@ -531,6 +561,8 @@ class ExplicitDynamics(CellSteps):
             if scaled:
                 mass = d["mass"].take(kv[:n])
                 cell_scale = d["cell_scale"].take(ck.cell_keys(self.mesh)[: self.n_cells_own])
+            if self.erosion_ratio > 0.0:
+                alive = d["alive"].take(ck.cell_keys(self.mesh)[: self.n_cells_own])
         except ck.CheckpointError as e:
             why = str(e)
         ck.raise_on_any(self.comm, why)
@@ -557,6 +589,11 @@ class ExplicitDynamics(CellSteps):
         self.KE0 = None if d["KE0"] is None else float(d["KE0"])
         if self.has_drivers:
             self.drivers.restore(d, driver_rows, root)
+        if self.walls.active:
+            self.walls.restore(d["E_wall"], root)
+        if self.erosion_ratio > 0.0:
+            self.alive[:] = np.asarray(alive) > 0.5
+            self._eroded_seen = self.erosion_stats()["cells"]
         if scaled:                      # selective mass scaling: the mass, the cells' factors, E_mass
             self.mass[:] = mass
             np.divide(1.0, self.mass, out=self.minv)
@@ -591,9 +628,9 @@ class ExplicitDynamics(CellSteps):
         contact_work (penalty energy + friction dissipation), contact_stored (penalty energy now);
         mass_scaling (the kinetic energy that selective mass scaling brought in: the added mass takes
         the node's velocity, 1/2 dm v^2 at each addition) and added_mass_kinetic (the kinetic energy
-        of the added mass now, part of kinetic);
-        balance_error = |KE + W_int + E_c - KE0 - W_ext - E_ms| / (KE0 + |W_ext| + E_ms) (absolute if
-        that is 0), E_ms = mass_scaling.
+        of the added mass now, part of kinetic); wall (the kinetic energy the rigid walls' stops took);
+        balance_error = |KE + W_int + E_c + E_wall - KE0 - W_ext - E_ms| / (KE0 + |W_ext| + E_ms)
+        (absolute if that is 0), E_ms = mass_scaling, E_wall = wall.
         """
         ke = self.kinetic_energy()
         el = self.elastic_energy()
@@ -604,15 +641,16 @@ class ExplicitDynamics(CellSteps):
             m = self.mass_scaling_stats()
             ms = dict(mass_scaling=m["energy"], added_mass_kinetic=m["kinetic"])
         e_ms = ms["mass_scaling"]
+        e_wall = self.walls.energy() if self.walls.active else 0.0
         if not self.has_drivers:
             # relative to the initial kinetic energy; a body at rest (KE0 = 0) reports the absolute error
             scale = self.KE0 + e_ms
-            err = abs(ke + w_int - self.KE0 - w_ext - e_ms) / (scale if scale > 0.0 else 1.0)
+            err = abs(ke + w_int + e_wall - self.KE0 - w_ext - e_ms) / (scale if scale > 0.0 else 1.0)
             return dict(kinetic=ke, elastic=el, internal_work=w_int, plastic=w_int - el,
                         external_work=w_ext, balance_error=err, prescribed_work=0.0, load_work=0.0,
-                        tool_work=0.0, contact_work=0.0, contact_stored=0.0, **ms)
-        e = dict(kinetic=ke, elastic=el, internal_work=w_int, plastic=w_int - el)
-        e.update(self.drivers.energies(ke, w_int, w_ext, self.comm, e_ms))
+                        tool_work=0.0, contact_work=0.0, contact_stored=0.0, wall=e_wall, **ms)
+        e = dict(kinetic=ke, elastic=el, internal_work=w_int, plastic=w_int - el, wall=e_wall)
+        e.update(self.drivers.energies(ke, w_int, w_ext, self.comm, e_ms, e_wall))
         e.update(ms)
         return e
 
@@ -668,13 +706,15 @@ class ExplicitDynamics(CellSteps):
         if self.KE0 is None:
             self.initialize()
         row_times = np.linspace(0.0, end_time, max(int(rows), 2))
-        next_row = 1
-        if on_row is not None and resume is None:
+        eps_t = 1e-12 * end_time
+        # a run that goes on from t > 0 (a second call) skips the row times behind it
+        next_row = max(1, int(np.searchsorted(row_times, self.t + eps_t, side="right")))
+        if on_row is not None and resume is None and self.t == 0.0:
             on_row(self, 0.0)
         dt_stable = dt_stable0
         dt_min, dt_max = np.inf, 0.0
         prog_times = np.linspace(0.0, end_time, progress + 1)[1:] if progress else []
-        next_prog = 0
+        next_prog = int(np.searchsorted(prog_times, self.t + eps_t, side="right")) if progress else 0
         if resume is not None:
             next_row, next_prog, dt_stable = resume["next_row"], resume["next_prog"], resume["dt_stable"]
             dt_min, dt_max = resume["dt_min"], resume["dt_max"]
@@ -686,7 +726,6 @@ class ExplicitDynamics(CellSteps):
             return dict(steps=self.step_count, dt_min=dt_min, dt_max=dt_max, dt_stable_initial=dt_stable0,
                         dt_stable_final=dt_stable_final, wall_s=wall,
                         time_per_step_s=wall / max(self.step_count - steps0, 1))
-        eps_t = 1e-12 * end_time
         # with contact against tools whose gap is Python code (gap_np), the serial run goes step by step
         chunked = self.fused and self.comm.size == 1 and self.contact.chunkable
         while self.t < end_time - eps_t and (max_steps is None or self.step_count < max_steps):
@@ -703,19 +742,23 @@ class ExplicitDynamics(CellSteps):
                         e.loop = dict(next_row=next_row, next_prog=next_prog, dt_stable=dt_stable,
                                       dt_stable0=dt_stable0, dt_min=dt_min, dt_max=dt_max)
                         raise e
-                dt = dt_safety * dt_stable
-                tr = row_times[next_row]
-                if self.t + dt > tr - eps_t:
-                    dt = tr - self.t
-                elif self.t + 1.5 * dt > tr:          # avoid a sliver step before the row time
-                    dt = 0.5 * (tr - self.t)
+                # equal steps to the next row time, none above dt_safety x dt_stable: k = the steps
+                # left to it, dt = what is left / k (the same dt at each step of the interval while
+                # dt_stable holds). Not a long step and a sliver before each row: central differences
+                # with periodically varying steps are unstable below the stable step (parametric
+                # resonance of the highest modes; an elastic bar with a row every 2.5 steps blew up)
+                remaining = row_times[next_row] - self.t
+                k_row = max(1, math.ceil(remaining / (dt_safety * dt_stable) - 1e-9))
+                dt = remaining / k_row
             # serial fused route: the steps up to the next check, with this dt, in one compiled call;
-            # it stops 1.5 dt short of the next row time so that landing on it is decided step by step
+            # the last step before a row time is taken alone (it lands on the row time exactly)
             n_chunk = 1
             if chunked:
-                limit = min(row_times[next_row], end_time)
-                n_chunk = min(self.reestimate_every - self.step_count % self.reestimate_every,
-                              int((limit - self.t) / dt - 1.5))
+                if steps is None:
+                    to_row = k_row - 1
+                else:
+                    to_row = int((min(row_times[next_row], end_time) - self.t) / dt - 1.5)
+                n_chunk = min(self.reestimate_every - self.step_count % self.reestimate_every, to_row)
                 if max_steps is not None:
                     n_chunk = min(n_chunk, max_steps - self.step_count)
             try:
@@ -749,6 +792,8 @@ class ExplicitDynamics(CellSteps):
                             f"{self.step_count}, {self._limit_text(dt_stable)}): raise "
                             f"analysis.time_steps or drop it (adaptive step)")
             while next_row < len(row_times) and self.t >= row_times[next_row] - eps_t:
+                if self.erosion_ratio > 0.0:
+                    self._log_erosion()
                 if on_row is not None:
                     on_row(self, self.t)
                 next_row += 1
@@ -767,6 +812,14 @@ class ExplicitDynamics(CellSteps):
                                          dt_stable0=dt_stable0, dt_min=dt_min, dt_max=dt_max))
                 last_checkpoint = self.step_count
         return stats(self.stable_dt())
+
+    def _log_erosion(self):
+        """A log line when cells have been eroded since the last call (collective)."""
+        e = self.erosion_stats()
+        if e["cells"] > self._eroded_seen:
+            self.log(f"  t = {self.t * 1e6:8.3f} us  {e['cells'] - self._eroded_seen} cell(s) eroded (about to "
+                     f"fold); {e['cells']} in all, {100 * e['volume_fraction']:.3g} % of the volume")
+            self._eroded_seen = e["cells"]
 
     def _nonfinite_cell(self, local=False):
         """(original index, reference vertex mean [mm]) of the first owned cell, on the lowest rank
@@ -795,4 +848,6 @@ class ExplicitDynamics(CellSteps):
                 f"{where}): most likely the cell folded "
                 f"(inverted), which a smaller time step does not prevent, nor mass scaling. Remedies: a finer mesh "
                 f"(mesh.refine) or one graded toward that cell; another element or material model "
-                f"(mesh.element, materials.<name>.model) may follow the deformation further")
+                f"(mesh.element, materials.<name>.model) may follow the deformation further; element erosion "
+                f"(analysis.erosion_ratio) removes such cells and goes on; a node passing a rigid support's "
+                f"plane is stopped by a wall on every node (boundary type 'wall')")

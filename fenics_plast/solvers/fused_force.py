@@ -120,14 +120,50 @@ def _deformation(ue, dNdX, N, Rinv, c, q):
 
 
 @_njit
-def _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta):
-    """Pass 1: Fu (n,3,3) at every point, F^-1 (n,5: rr, rz, zr, zz, hh), J/theta (n,), theta (nc,)."""
+def _freeze_quad(c, nq, Fu, Finv, factor):
+    """An eroded cell's points: Fu = I (the material update keeps the committed state and stress),
+    F^-1 = I and factor 0 (no nodal force)."""
+    for q in range(nq):
+        p = c * nq + q
+        Fu[p, 0, 0] = 1.0
+        Fu[p, 0, 1] = 0.0
+        Fu[p, 1, 0] = 0.0
+        Fu[p, 1, 1] = 1.0
+        Fu[p, 2, 2] = 1.0
+        Finv[p, 0] = 1.0
+        Finv[p, 1] = 0.0
+        Finv[p, 2] = 0.0
+        Finv[p, 3] = 1.0
+        Finv[p, 4] = 1.0
+        factor[p] = 0.0
+
+
+@_njit
+def erodes(J, th, erosion_ratio):
+    """Whether a cell with point Jacobians J (nq,) and mean dilatation th is eroded: erosion on
+    (ratio > 0) and its smallest J below ratio x th (a cell about to fold; th <= 0 always qualifies)."""
+    if erosion_ratio <= 0.0:
+        return False
+    jmin = J[0]
+    for q in range(1, J.shape[0]):
+        jmin = min(jmin, J[q])
+    return jmin < erosion_ratio * th or th <= 0.0
+
+
+@_njit
+def _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta):
+    """Pass 1: Fu (n,3,3) at every point, F^-1 (n,5: rr, rz, zr, zz, hh), J/theta (n,), theta (nc,).
+    Cells with alive[c] = 0 are eroded (frozen: :func:`_freeze_quad`); a cell that :func:`erodes` now
+    gets alive[c] = 0."""
     nc, nq = W.shape
     J = np.empty(nq)
     J_n = np.empty(nq)
     ue = np.empty(8)
     ue_n = np.empty(8)
     for c in range(nc):
+        if not alive[c]:
+            _freeze_quad(c, nq, Fu, Finv, factor)
+            continue
         for a in range(4):
             node = cell_dofs[c, a]
             ue[2 * a] = u[2 * node]
@@ -163,6 +199,10 @@ def _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, the
             wsum += W[c, q]
         th /= wsum
         th_n /= wsum
+        if erodes(J, th, erosion_ratio):
+            alive[c] = 0
+            _freeze_quad(c, nq, Fu, Finv, factor)
+            continue
         theta[c] = th
         for q in range(nq):
             p = c * nq + q
@@ -209,8 +249,8 @@ def _force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f):
 
 
 @_njit
-def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, law, hp, yield_tol, regions,
-                   binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
+def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
+                   yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
     """Kinematics, material update and commit, nodal internal force, in one call.
 
     Quadrilaterals (``CellGeometry``) or hexahedra (``fused_force_hex.HexGeometry``), told apart by the
@@ -219,6 +259,10 @@ def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, 
     u, u_n : (gdim n_nodes,) current and previous displacement (owned + ghost) [mm].
     cell_dofs : (nc, 4 | 8) node indices of the owned cells (basix order).
     dNdX, N, Rinv, W : the geometry's arrays (``CellGeometry`` / ``HexGeometry``).
+    alive : (nc,) uint8, 0 for an eroded cell: its points keep their committed state and stress and it
+        adds no force. erosion_ratio : a living cell whose smallest point Jacobian falls below
+        erosion_ratio x its mean dilatation (about to fold) is eroded in this call (:func:`erodes`;
+        0: never). Element erosion is of this pass only: the UFL route has none.
     model, lmbda, mu, law, hp, yield_tol : ``Material.kernel_args()`` (one material), or the
         per-material tables of ``MaterialRegions.kernel_args()`` together with ``regions``.
     regions : None (one material) or ``MaterialRegions.point_layout(nq)``: the points of each
@@ -232,40 +276,40 @@ def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, 
     factor (n,): work arrays; theta (nc,) mean dilatation out; f (gdim n_nodes,) force out [N].
     Returns True if the stress and the force are finite.
     """
-    return _passes(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, law, hp, yield_tol, regions, binv,
-                   eqps, temp, dt, tau, Fu, Finv, factor, theta, f)
+    return _passes(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
+                   yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f)
 
 
-def _passes(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, law, hp, yield_tol, regions, binv, eqps,
-            temp, dt, tau, Fu, Finv, factor, theta, f):
+def _passes(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp, yield_tol,
+            regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
     """The three passes of :func:`internal_force` (compiled: see the overload below)."""
     raise NotImplementedError("compiled code only")
 
 
 @overload(_passes)
-def _passes_impl(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, law, hp, yield_tol, regions, binv,
-                 eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
+def _passes_impl(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
+                 yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
     """Hexahedra of one material: block by block of cells
     (:func:`fenics_plast.solvers.fused_force_hex.hex_passes_blocked`, the same numbers; 3-D arrays are
     large); otherwise each pass over all cells."""
     if Finv.ndim == 3 and isinstance(regions, types.NoneType):
         from fenics_plast.solvers.fused_force_hex import hex_passes_blocked
 
-        def blocked(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, law, hp, yield_tol, regions, binv,
-                    eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
-            return hex_passes_blocked(u, u_n, cell_dofs, dNdX, W, fbar, model, lmbda, mu, law, hp, yield_tol, binv,
-                                      eqps, temp, dt[0], tau, Fu, Finv, factor, theta, f)
+        def blocked(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
+                    yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
+            return hex_passes_blocked(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, model, lmbda, mu, law,
+                                      hp, yield_tol, binv, eqps, temp, dt[0], tau, Fu, Finv, factor, theta, f)
         return blocked
 
-    def whole(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, model, lmbda, mu, law, hp, yield_tol, regions, binv,
-              eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
-        _cell_kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta)
+    def whole(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp, yield_tol,
+              regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
+        _cell_kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta)
         _material_update(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, temp, dt[0], tau)
         return _nodal_force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f)
     return whole
 
 
-def _cell_kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta):
+def _cell_kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta):
     """Pass 1 of the cells' kind (compiled: see the overload below)."""
     raise NotImplementedError("compiled code only")
 
@@ -276,18 +320,18 @@ def _nodal_force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f):
 
 
 @overload(_cell_kinematics)
-def _cell_kinematics_impl(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta):
+def _cell_kinematics_impl(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta):
     """Chosen by Finv's dimension when numba compiles: 2, quadrilaterals (:func:`_kinematics`);
     3, hexahedra (:func:`fenics_plast.solvers.fused_force_hex.hex_kinematics`)."""
     if Finv.ndim == 3:
         from fenics_plast.solvers.fused_force_hex import hex_kinematics
 
-        def hexahedra(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta):
-            hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, Fu, Finv, factor, theta)
+        def hexahedra(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta):
+            hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta)
         return hexahedra
 
-    def quadrilaterals(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta):
-        _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, Fu, Finv, factor, theta)
+    def quadrilaterals(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta):
+        _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta)
     return quadrilaterals
 
 

@@ -34,7 +34,7 @@ import numba
 import numpy as np
 
 from fenics_plast.material import kernels
-from fenics_plast.solvers.fused_force import _cbrt
+from fenics_plast.solvers.fused_force import _cbrt, erodes
 
 _njit = numba.njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
 
@@ -105,11 +105,26 @@ def _adjugate(A, adj):
 
 
 @_njit
-def hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, Fu, Finv, factor, theta):
+def _freeze_hex(c, nq, Fu, Finv, factor):
+    """An eroded cell's points: Fu = F^-1 = I (the material update keeps the committed state and
+    stress) and factor 0 (no nodal force)."""
+    for q in range(nq):
+        p = c * nq + q
+        for i in range(3):
+            for j in range(3):
+                Fu[p, i, j] = 1.0 if i == j else 0.0
+                Finv[p, i, j] = 1.0 if i == j else 0.0
+        factor[p] = 0.0
+
+
+@_njit
+def hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta):
     """Pass 1 on hexahedra: Fu (n,3,3) at every point, F^-1 (n,3,3), J/theta (n,), theta (nc,).
 
     u, u_n (3 n_nodes,) current and previous displacements [mm] (entry 3 node + component);
-    cell_dofs (nc, 8) node indices (basix order); fbar: Q1/P0 F-bar (False: theta = J, factor 1).
+    cell_dofs (nc, 8) node indices (basix order); fbar: Q1/P0 F-bar (False: theta = J, factor 1);
+    alive (nc,) uint8: 0 = eroded (frozen, :func:`_freeze_hex`); a cell that
+    :func:`~fenics_plast.solvers.fused_force.erodes` (erosion_ratio) now gets alive[c] = 0.
     """
     nc, nq = W.shape
     J = np.empty(nq)
@@ -121,6 +136,9 @@ def hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, Fu, Finv, factor, theta):
     adjF = np.empty((3, 3))
     adjG = np.empty((3, 3))
     for c in range(nc):
+        if not alive[c]:
+            _freeze_hex(c, nq, Fu, Finv, factor)
+            continue
         for a in range(8):
             node = cell_dofs[c, a]
             for i in range(3):
@@ -159,6 +177,10 @@ def hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, Fu, Finv, factor, theta):
             wsum += W[c, q]
         th /= wsum
         th_n /= wsum
+        if erodes(J, th, erosion_ratio):
+            alive[c] = 0
+            _freeze_hex(c, nq, Fu, Finv, factor)
+            continue
         theta[c] = th
         for q in range(nq):
             p = c * nq + q
@@ -196,8 +218,8 @@ CELLS_PER_BLOCK = 32
 
 
 @_njit
-def hex_passes_blocked(u, u_n, cell_dofs, dNdX, W, fbar, model, lmbda, mu, law, hp, yield_tol, binv, eqps, temp,
-                       dt, tau, Fu, Finv, factor, theta, f):
+def hex_passes_blocked(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp, yield_tol,
+                       binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
     """The three passes (kinematics, material update and commit, nodal force) block by block of
     :data:`CELLS_PER_BLOCK` cells, one material (arguments as ``fused_force.internal_force``; temp
     (n,) or a dummy (1,) array). Each cell's arithmetic and the order in which the cells add to f
@@ -211,8 +233,8 @@ def hex_passes_blocked(u, u_n, cell_dofs, dNdX, W, fbar, model, lmbda, mu, law, 
     for c0 in range(0, nc, CELLS_PER_BLOCK):
         c1 = min(c0 + CELLS_PER_BLOCK, nc)
         p0, p1 = c0 * nq, c1 * nq
-        hex_kinematics(u, u_n, cell_dofs[c0:c1], dNdX[c0:c1], W[c0:c1], fbar, Fu[p0:p1], Finv[p0:p1],
-                       factor[p0:p1], theta[c0:c1])
+        hex_kinematics(u, u_n, cell_dofs[c0:c1], dNdX[c0:c1], W[c0:c1], fbar, alive[c0:c1], erosion_ratio,
+                       Fu[p0:p1], Finv[p0:p1], factor[p0:p1], theta[c0:c1])
         T = temp[p0:p1] if per_point_temp else temp
         kernels.update_points(model, Fu[p0:p1], binv[p0:p1], eqps[p0:p1], T, lmbda, mu, law, hp, yield_tol, dt,
                               tau[p0:p1], binv[p0:p1], eqps[p0:p1], T, no_tangent, False)

@@ -33,8 +33,13 @@ Energies (trapezoidal rule over the step, du = u_{n+1} - u_n):
   frictional dissipation) E_c += -(f_c,n + f_c,n+1)/2 . (du - dd), dd the tool's translation over
   the step, and the work of the moving tool W_tool += (F_c,n + F_c,n+1)/2 . dd.
 
-Balance: KE + W_int + E_c = KE0 + W_ext with W_ext = W_load + sum W_set + W_tool (+ the supports'
-work, zero for homogeneous velocity constraints).
+Rigid walls (boundary type "wall", :func:`stop_at_walls`): after the drift a dof past its wall is
+put back on it and v_{n+1/2} becomes the velocity that lands it there; the energy this takes, E_wall,
+is the stopped dof's own balance over the step, 1/2 m (v_n^2 - v_{n+1}^2) - du (g_n + g_{n+1}) / 2
+(g its net internal force, :func:`settle_walls`).
+
+Balance: KE + W_int + E_c + E_wall = KE0 + W_ext with W_ext = W_load + sum W_set + W_tool (+ the
+supports' work, zero for homogeneous velocity constraints).
 
 The stable step's element size (:func:`quad_min_size`: smallest edge or altitude of the deformed
 quads) is here too; ExplicitDynamics.stable_dt divides it by the wave speed and combines it with the
@@ -57,6 +62,7 @@ from mpi4py import MPI
 from fenics_plast.solvers.fused_force import internal_force
 
 _njit = numba.njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
+_NONE = np.zeros(0)             # "no load vector" for the walls' kernels called by the plain kernels
 
 VELOCITY, DISPLACEMENT = 0, 1
 
@@ -204,44 +210,104 @@ def _lazy_min(d, order, x, cell_dofs, mass, lam, mu, scale_sqrt, axisymmetric, f
 
 
 @_njit
-def kick_drift(v, a, f, du, u, u_n, dt, n):
-    """v += dt/2 a; du = dt v; u_n = u (all entries); u[:n] += du. Returns du . f (owned) [N mm]."""
+def _load(fload, fcon, i):
+    """fload[i] + fcon[i], 0 where the arrays are empty (the plain kernels' call)."""
+    x = 0.0
+    if fload.shape[0]:
+        x += fload[i]
+    if fcon.shape[0]:
+        x += fcon[i]
+    return x
+
+
+@_njit
+def stop_at_walls(v, a, du, u, u_n, dt, mass, f, fload, fcon, walls):
+    """Rigid unilateral walls (boundary type "wall"), after the drift: a dof that has passed its wall
+    is put back on it, u = limit, and its half-step velocity becomes the one that lands it there,
+    v_{n+1/2} = (limit - u_n) / dt (the forward-increment constraint of an explicit contact; the
+    tangential components go on unchanged).
+
+    The energy the stop takes is the dof's own discrete balance over the step, closed in
+    :func:`settle_walls` after the kick: E = 1/2 m (v_n^2 - v_{n+1}^2) - du (g_n + g_{n+1}) / 2 with
+    g = f - fload - fcon its net internal force (what the free dofs' kinetic energy change and the
+    trapezoidal works match): 1/2 m v^2 for a node that lands at speed v and stays, 0 for a node at
+    rest on the wall. v_n is v_{n+1/2} - dt/2 a_n (a still holds a_n here); f, fload, fcon hold the
+    step-n forces (fload, fcon may be empty: none).
+
+    walls = (dofs (nw,) int64 owned dofs, limit (nw,) the displacement at which each dof touches its
+    wall [mm], side (nw,) +1 / -1: the side of the wall the body is on, lost (1,) the energy the stops
+    took [N mm] (accumulated), pending (nw,) and hit (nw,) uint8: the open balance of the dofs
+    stopped in this step).
+    """
+    dofs, limit, side, lost, pending, hit = walls
+    for j in range(dofs.shape[0]):
+        i = dofs[j]
+        if side[j] * (u[i] - limit[j]) < 0.0:
+            v_n = v[i] - 0.5 * dt * a[i]
+            u[i] = limit[j]
+            du[i] = u[i] - u_n[i]
+            v[i] = du[i] / dt
+            pending[j] = 0.5 * mass[i] * v_n * v_n - 0.5 * du[i] * (f[i] - _load(fload, fcon, i))
+            hit[j] = 1
+
+
+@_njit
+def settle_walls(v, du, mass, f, fload, fcon, walls):
+    """After the kick: closes the balance of the dofs stopped in this step (:func:`stop_at_walls`)
+    with their step-end velocity and forces, into walls' ``lost``."""
+    dofs, limit, side, lost, pending, hit = walls
+    for j in range(dofs.shape[0]):
+        if hit[j]:
+            i = dofs[j]
+            lost[0] += pending[j] - 0.5 * mass[i] * v[i] * v[i] - 0.5 * du[i] * (f[i] - _load(fload, fcon, i))
+            hit[j] = 0
+
+
+@_njit
+def kick_drift(v, a, f, du, u, u_n, dt, n, mass, walls):
+    """v += dt/2 a; du = dt v; u_n = u (all entries); u[:n] += du; the walls' stops
+    (:func:`stop_at_walls`). Returns du . f (owned) [N mm]."""
     u_n[:] = u
-    w = 0.0
     for i in range(n):
         v[i] += 0.5 * dt * a[i]
         du[i] = dt * v[i]
         u[i] += du[i]
+    stop_at_walls(v, a, du, u, u_n, dt, mass, f, _NONE, _NONE, walls)
+    w = 0.0
+    for i in range(n):
         w += du[i] * f[i]
     return w
 
 
 @_njit
-def kick(v, a, f, free_minv, du, dt, n):
-    """a = -f / M (0 on constrained dofs); v += dt/2 a. Returns du . f (owned) [N mm]."""
+def kick(v, a, f, free_minv, du, dt, n, mass, walls):
+    """a = -f / M (0 on constrained dofs); v += dt/2 a; the walls' balance (:func:`settle_walls`).
+    Returns du . f (owned) [N mm]."""
     w = 0.0
     for i in range(n):
         a[i] = -f[i] * free_minv[i]
         v[i] += 0.5 * dt * a[i]
         w += du[i] * f[i]
+    settle_walls(v, du, mass, f, _NONE, _NONE, walls)
     return w
 
 
 @_njit
-def advance(nsteps, dt, v, a, free_minv, du, n, force_args, work):
+def advance(nsteps, dt, v, a, free_minv, du, n, force_args, work, mass, walls):
     """``nsteps`` central-difference steps of size dt in one call (serial runs, fused force).
 
     force_args : the arguments of :func:`fused_force.internal_force` (u and u_n first, f last),
-    whose arrays are updated in place. work : (1,) internal work [N mm], incremented step by step
+    whose arrays are updated in place; mass, walls: as :func:`stop_at_walls`.
+    work : (1,) internal work [N mm], incremented step by step
     exactly as :meth:`ExplicitDynamics.step` does (so the result does not depend on how steps are
     grouped). Returns (steps done, finite): stops after the first step whose stress or force is
     not finite.
     """
     u, u_n, f = force_args[0], force_args[1], force_args[-1]
     for k in range(nsteps):
-        w_old = kick_drift(v, a, f, du, u, u_n, dt, n)
+        w_old = kick_drift(v, a, f, du, u, u_n, dt, n, mass, walls)
         ok = internal_force(*force_args)
-        w_new = kick(v, a, f, free_minv, du, dt, n)
+        w_new = kick(v, a, f, free_minv, du, dt, n, mass, walls)
         work[0] += 0.5 * (w_old + w_new)
         if not ok:
             return k + 1, False
@@ -253,8 +319,9 @@ def advance(nsteps, dt, v, a, free_minv, du, n, force_args, work):
 
 
 @_njit
-def drift_general(v, a, f, fload, fcon, mass, du, u, u_n, dt, n, pdofs, pkind, pval, pv_old, r_old):
-    """First half of a step with prescribed dofs.
+def drift_general(v, a, f, fload, fcon, mass, du, u, u_n, dt, n, pdofs, pkind, pval, pv_old, r_old, walls):
+    """First half of a step with prescribed dofs (and the walls' stops, :func:`stop_at_walls`, before
+    the prescribed values are set).
 
     pdofs (np,) prescribed owned dofs, pkind (np,) VELOCITY | DISPLACEMENT, pval (np, 2) this
     step's values: (v_{n+1/2}, v_{n+1}) [mm/s] or (u_{n+1}, v_{n+1}) [mm, mm/s]. Writes v_n of the
@@ -266,6 +333,7 @@ def drift_general(v, a, f, fload, fcon, mass, du, u, u_n, dt, n, pdofs, pkind, p
         v[i] += 0.5 * dt * a[i]
         du[i] = dt * v[i]
         u[i] += du[i]
+    stop_at_walls(v, a, du, u, u_n, dt, mass, f, fload, fcon, walls)
     for j in range(pdofs.shape[0]):
         i = pdofs[j]
         pv_old[j] = v[i]                  # a = 0 there: still v_n
@@ -287,10 +355,11 @@ def drift_general(v, a, f, fload, fcon, mass, du, u, u_n, dt, n, pdofs, pkind, p
 
 
 @_njit
-def kick_general(v, a, f, fload, fcon, free_minv, mass, du, dt, n, pdofs, pset, pval, r_old, reac, wset):
+def kick_general(v, a, f, fload, fcon, free_minv, mass, du, dt, n, pdofs, pset, pval, r_old, reac, wset, walls):
     """Second half of a step: a = (fload + fcon - f) / M on free dofs, v += dt/2 a; prescribed dofs
     get v_{n+1}, their reaction r_{n+1}^- into reac (np,) [N] and the trapezoidal reaction work
-    into wset[set] [N mm]. Returns (du . f, du . fload) [N mm]."""
+    into wset[set] [N mm]; the walls' balance (:func:`settle_walls`). Returns (du . f, du . fload)
+    [N mm]."""
     w_int = 0.0
     w_load = 0.0
     for i in range(n):
@@ -305,6 +374,7 @@ def kick_general(v, a, f, fload, fcon, free_minv, mass, du, dt, n, pdofs, pset, 
         r = f[i] - fload[i] - fcon[i] + mass[i] * 2.0 * (v[i] - vh) / dt
         wset[pset[j]] += 0.5 * (r_old[j] + r) * du[i]
         reac[j] = r
+    settle_walls(v, du, mass, f, fload, fcon, walls)
     return w_int, w_load
 
 
@@ -549,28 +619,29 @@ def contact_forces_3d(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t
 
 @_njit
 def advance_general(nsteps, dt, v, a, free_minv, mass, du, n, force_args, fload, fload_rows,
-                    pdofs, pkind, pset, pvals, pv_old, r_old, reac, wset, fcon, contact_args, trans, work):
+                    pdofs, pkind, pset, pvals, pv_old, r_old, reac, wset, fcon, contact_args, trans, work, walls):
     """``nsteps`` steps of a serial, fused-force run with prescribed motion, loads and contact (the
     same kernels, in the same order, as the step-by-step path of ExplicitDynamics).
 
     fload_rows (nsteps, n) or (nsteps, 0): the load vector at the step ends (none: fload stays);
     pvals (nsteps, np, 2) the prescribed values of each step; contact_args: the arguments of
     :func:`contact_forces` from X to pen; trans (nsteps + 1, npairs, 2) the tool translations at
-    the step times. work (2,) += internal work, load work [N mm]. Returns (steps done, finite).
+    the step times. work (2,) += internal work, load work [N mm]; walls: as :func:`stop_at_walls`.
+    Returns (steps done, finite).
     """
     u, u_n, f = force_args[0], force_args[1], force_args[-1]
     has_load = fload_rows.shape[1] > 0
     has_contact = contact_args[0].shape[0] > 0
     for k in range(nsteps):
         wi0, wl0 = drift_general(v, a, f, fload, fcon, mass, du, u, u_n, dt, n, pdofs, pkind, pvals[k],
-                                 pv_old, r_old)
+                                 pv_old, r_old, walls)
         ok = internal_force(*force_args)
         if has_load:
             fload[:] = fload_rows[k]
         if has_contact:
             contact_forces(u, du, dt, *contact_args, trans[k], trans[k + 1], fcon)
         wi1, wl1 = kick_general(v, a, f, fload, fcon, free_minv, mass, du, dt, n, pdofs, pset, pvals[k],
-                                r_old, reac, wset)
+                                r_old, reac, wset, walls)
         work[0] += 0.5 * (wi0 + wi1)
         work[1] += 0.5 * (wl0 + wl1)
         if not ok:
@@ -782,7 +853,7 @@ class Drivers:
         d = self.step_data(s.t, dt, 1)
         v, u = s.v.x.array, s.u.x.array
         wi0, wl0 = drift_general(v, s.a, s.f, self.fload, self.fcon, s.mass, s.du, u, s.u_n.x.array, dt, n,
-                                 self.pdofs, self.pkind, d.pvals[0], self.pv_old, self.r_old)
+                                 self.pdofs, self.pkind, d.pvals[0], self.pv_old, self.r_old, s.walls.args)
         if s.theta is not None:
             s.theta_n.x.array[:] = s.theta.x.array
         if s.comm.size > 1:
@@ -793,7 +864,8 @@ class Drivers:
         if s.contact.pairs:
             s.contact.update(u, s.du, dt, d.trans[0], d.trans[1], self.fcon, d.times[1])
         wi1, wl1 = kick_general(v, s.a, s.f, self.fload, self.fcon, s.free_minv, s.mass, s.du, dt, n,
-                                self.pdofs, self.pset, d.pvals[0], self.r_old, self.reac, self.wset)
+                                self.pdofs, self.pset, d.pvals[0], self.r_old, self.reac, self.wset,
+                                s.walls.args)
         s.W_int += 0.5 * (wi0 + wi1)
         self.W_load += 0.5 * (wl0 + wl1)
 
@@ -805,14 +877,16 @@ class Drivers:
         work = np.array([s.W_int, self.W_load])
         out = advance_general(nsteps, dt, s.v.x.array, s.a, s.free_minv, s.mass, s.du, self.n, s._force_args,
                               self.fload, d.fload_rows, self.pdofs, self.pkind, self.pset, d.pvals, self.pv_old,
-                              self.r_old, self.reac, self.wset, self.fcon, s.contact.args(), d.trans, work)
+                              self.r_old, self.reac, self.wset, self.fcon, s.contact.args(), d.trans, work,
+                              s.walls.args)
         s.W_int, self.W_load = float(work[0]), float(work[1])
         return out
 
     # -- energies ----------------------------------------------------------------------------
-    def energies(self, ke, w_int, w_ext, comm, e_mass=0.0):
+    def energies(self, ke, w_int, w_ext, comm, e_mass=0.0, e_wall=0.0):
         """The energy entries of the drivers and the balance error (collective); ``e_mass``: the kinetic
-        energy brought in by mass scaling [N mm] (summed), a source term of the balance."""
+        energy brought in by mass scaling, ``e_wall``: the kinetic energy taken by the walls' stops
+        [N mm] (summed), a source and a sink of the balance."""
         s, acc = self.s, self.s.contact.acc
         loc = np.concatenate([[self.W_load, float(self.wset.sum())], acc[:, 0], acc[:, 1]])
         tot = comm.allreduce(loc, op=MPI.SUM) if comm.size > 1 else loc
@@ -822,7 +896,7 @@ class Drivers:
         stored = sum(p.stored_energy() for p in s.contact.pairs)
         w_ext = w_ext + w_pres + w_load + w_tool
         scale = s.KE0 + abs(w_ext) + e_mass
-        err = abs(ke + w_int + e_c - s.KE0 - w_ext - e_mass) / (scale if scale > 0.0 else 1.0)
+        err = abs(ke + w_int + e_c + e_wall - s.KE0 - w_ext - e_mass) / (scale if scale > 0.0 else 1.0)
         return dict(external_work=w_ext, balance_error=err, prescribed_work=w_pres, load_work=w_load,
                     tool_work=w_tool, contact_work=e_c, contact_stored=stored)
 
