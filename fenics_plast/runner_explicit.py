@@ -27,6 +27,8 @@ from fenics_plast.solvers.collapse import TimeStepCollapse
 from fenics_plast.solvers.explicit import ExplicitDynamics
 
 US = 1e-6
+#: added mass (fraction of the body's) above which the run log warns
+MASS_WARNING = 0.05
 
 
 def velocity_constraints(problem, V, ft, groups):
@@ -166,6 +168,12 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
             cols = quantities.row(t / US)
             if scaling:
                 cols.update(mass_scaling_columns(s))
+                if cols["added_mass_fraction"] > MASS_WARNING and not state.get("mass_warned"):
+                    state["mass_warned"] = True
+                    output.log(f"warning: at t = {t / US:.4g} us selective mass scaling has added "
+                               f"{100 * cols['added_mass_fraction']:.3g} % of the body's mass (to "
+                               f"{cols['mass_scaled_cells']} cells): the answer may be another body's; a "
+                               f"smaller analysis.mass_scaling_dt adds less")
             cols.update(wall_erosion_columns(s))
             output.history(time_us=t / US, **cols)
         if xf is not None and (state["row"] % every == 0 or t >= end_time * (1 - 1e-12) or state.get("stop")):

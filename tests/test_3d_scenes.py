@@ -22,7 +22,7 @@ from scene_runs import ROOT, history, run_scene
 DEMOS = ROOT / "demos"
 QUIET = ("output.xdmf=false", "output.plots=false")
 #: Richardson limits of the axisymmetric uniform-mesh study (docs/STUDIES.md, taylor_mesh)
-R_INF, L_INF = 7.22849, 21.4222
+R_INF, L_INF = 7.22863, 21.4228
 #: graded quarter: 18 layers, face layer 16 x thinner than the top one, ring cells 4 x narrower outside
 GRADED = ("mesh.parameters.cells_axial=18", "mesh.parameters.axial_size_ratio=16",
           "mesh.parameters.radial_size_ratio=4")

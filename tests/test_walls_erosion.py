@@ -274,3 +274,19 @@ def test_wall_scene_checks(tmp_path):
     with pytest.raises(SceneError) as e:
         load_problem(BAR, ["boundary.pull.type=fixed", 'boundary.pull.components=["z"]'])
     assert "boundary.pull.group is missing" in str(e.value)
+
+
+def test_heavy_mass_scaling_is_reported(tmp_path, capsys):
+    """400 m/s with a target step of 0.02 us: the wedge-thin face cells need ten times the bar's mass;
+    the log says so once, and summary.json has the fraction."""
+    from fenics_plast import cli
+    out = tmp_path / "heavy"
+    rc = cli.main(["run", str(TAYLOR), "--out", str(out), "--set", "initial_velocity.bar.value=[0.0,-400.0]",
+                   "--set", "analysis.mass_scaling_dt=0.02", "--set", "analysis.erosion_ratio=0.1",
+                   "--set", "output.plots=false", "--set", "output.xdmf=false"])
+    assert rc == 0
+    log = capsys.readouterr().out
+    assert log.count("selective mass scaling has added") == 1
+    import json
+    s = json.loads((out / "summary.json").read_text())
+    assert s["added_mass_fraction"] > 1.0 and s["converged"] is True

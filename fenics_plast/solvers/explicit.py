@@ -628,7 +628,7 @@ class ExplicitDynamics(CellSteps):
         contact_work (penalty energy + friction dissipation), contact_stored (penalty energy now);
         mass_scaling (the kinetic energy that selective mass scaling brought in: the added mass takes
         the node's velocity, 1/2 dm v^2 at each addition) and added_mass_kinetic (the kinetic energy
-        of the added mass now, part of kinetic); wall (the kinetic energy the rigid walls' stops took);
+        of the added mass now, part of kinetic); wall (the energy the rigid walls' stops took);
         balance_error = |KE + W_int + E_c + E_wall - KE0 - W_ext - E_ms| / (KE0 + |W_ext| + E_ms)
         (absolute if that is 0), E_ms = mass_scaling, E_wall = wall.
         """
