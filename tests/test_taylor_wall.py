@@ -141,10 +141,12 @@ def test_a_node_in_two_pairs_has_both_springs_in_the_stable_step():
 # ----------------------------------------------------------------------------------------------
 # the scene's own mesh (6 x 36 cells): 2-3 s a run
 
-#: measured (serial): demos/taylor_bar.toml and demos/taylor_bar_wall.toml with mu = 0, 0.1
-FULL = {"sliding": {"radius_mm": 7.083304489612052, "length_mm": 21.453719829605348, "max_eqps": 3.1152864985804913},
-        0.0: {"radius_mm": 7.32737985279088, "length_mm": 21.440357186020833, "max_eqps": 4.3380899337788295},
-        0.1: {"radius_mm": 6.887850568424317, "length_mm": 21.57330153084653, "max_eqps": 3.2495356092465544}}
+#: measured (serial): demos/taylor_bar.toml and demos/taylor_bar_wall.toml with mu = 0, 0.1 (again
+#: after the solver began to cut each history-row interval into equal steps: radius and length moved
+#: by < 1e-3, the corner's max eqps by 3 %)
+FULL = {"sliding": {"radius_mm": 7.083917111942336, "length_mm": 21.454488965782005, "max_eqps": 3.1166009922516458},
+        0.0: {"radius_mm": 7.321328053387344, "length_mm": 21.447537998424465, "max_eqps": 4.212759554550654},
+        0.1: {"radius_mm": 6.869701661183889, "length_mm": 21.581164102835338, "max_eqps": 3.158370755309511}}
 
 
 @pytest.fixture(scope="module")
@@ -156,8 +158,8 @@ def full(tmp_path_factory):
 
 @pytest.mark.slow
 def test_full_resolution_wall_against_the_sliding_support(full):
-    """Radius +3.45 %, length -0.06 %, dissipation / KE0 +0.24 %; mu = 0.1: radius -6.0 % from mu = 0;
-    energy balance within 0.18 % throughout; penetration 0.072 mm (8 % of the 0.9 mm cell)."""
+    """Radius +3.35 %, length -0.03 %, dissipation / KE0 +0.1 %; mu = 0.1: radius -6.2 % from mu = 0;
+    energy balance within 0.05 % throughout; penetration 0.066 mm (7 % of the 0.9 mm cell)."""
     for run, ref in FULL.items():
         for k, v in ref.items():
             assert full[run][k] == pytest.approx(v, rel=1e-6), (run, k)
