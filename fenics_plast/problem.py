@@ -65,7 +65,8 @@ class Problem:
 
     @property
     def active_physics(self) -> list[str]:
-        """What the problem assembles: plasticity, inertia, contact, friction, tractions."""
+        """What the problem assembles: plasticity, inertia, contact, friction, tractions, walls (rigid
+        walls' stops), erosion (element erosion in the force pass)."""
         phys = set()
         if any(m.hardening is not None for m in self.materials.values()):
             phys.add("plasticity")
@@ -77,6 +78,10 @@ class Problem:
                 phys.add("friction")
         if any(b.type in ("traction", "pressure") for b in self.boundary.values()):
             phys.add("tractions")
+        if any(b.type == "wall" for b in self.boundary.values()):
+            phys.add("walls")
+        if self.explicit and self.analysis.erosion_ratio > 0.0:
+            phys.add("erosion")
         return sorted(phys)
 
     def to_dict(self) -> dict[str, Any]:

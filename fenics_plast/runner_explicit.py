@@ -268,7 +268,7 @@ def mass_scaling_columns(solver) -> dict:
 
 
 def wall_erosion_columns(solver) -> dict:
-    """The history columns of the rigid walls (the kinetic energy their stops took [J]) and of element
+    """The history columns of the rigid walls (the energy their stops took [J]) and of element
     erosion (eroded cells, their fraction of the body's volume), each when the scene has them
     (collective)."""
     cols = {}

@@ -295,7 +295,7 @@ SCHEMA: dict[str, Table] = {
                         "held at 0 (the group must lie in a line (2-D) or plane (3-D) normal to x, y or z); axis: "
                         "u_r = 0 (axisymmetric only); wall (explicit): a rigid frictionless plane normal to "
                         "`components` at `position` that the nodes cannot pass (a node that reaches it stops "
-                        "there and may leave it again; the kinetic energy the stops take is wall_energy_J, a "
+                        "there and may leave it again; the energy the stops take is wall_energy_J, a "
                         "term of the energy balance). The body starts on one side of it.",
                         choices=("fixed", "displacement", "velocity", "traction", "pressure", "symmetry", "axis",
                                  "wall")),

@@ -58,7 +58,9 @@ def test_shipped_scenes_load_with_units_converted():
     assert p.explicit and p.analysis.end_time == pytest.approx(80e-6)
     assert p.materials["copper"].density == pytest.approx(8930.0e-12)
     assert p.initial_velocity["bar"].value[1].evaluate() == -227.0      # m/s as written (scaled by the runner)
-    assert p.active_physics == ["inertia", "plasticity"]
+    assert p.active_physics == ["inertia", "plasticity", "walls"]
+    assert load_problem(TAYLOR, ["analysis.erosion_ratio=0.1"]).active_physics == ["erosion", "inertia", "plasticity",
+                                                                             "walls"]
     q = load_problem(PUNCH, ["contact.punch.friction=0.15"])
     assert q.active_physics == ["contact", "friction", "plasticity"]
     assert list(q.steps) == ["to_20mm", "to_40mm"]

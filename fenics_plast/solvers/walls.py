@@ -55,7 +55,8 @@ class RigidWalls:
         elif hi <= tol:
             side = -1.0
         else:
-            raise ValueError(f"{name}: the body lies on both sides of the wall at {'xyz'[component]} = "
+            axis = ("r", "z")[component] if s.kin.axisymmetric else "xyz"[component]
+            raise ValueError(f"{name}: the body lies on both sides of the wall at {axis} = "
                              f"{position:g} mm (its nodes span {lo + position:g} to {hi + position:g} mm): "
                              f"a wall must start with the whole body on one side")
         dofs = nodes * s.bs + component
@@ -75,7 +76,7 @@ class RigidWalls:
         return bool(self.names)
 
     def energy(self):
-        """Kinetic energy the stops have taken so far [N mm], summed over the ranks (collective)."""
+        """Energy the stops have taken so far [N mm], summed over the ranks (collective)."""
         return self.s._reduce(float(self.args[3][0]), MPI.SUM)
 
     def restore(self, energy, root):
