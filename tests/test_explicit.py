@@ -5,10 +5,6 @@ refused; (c) serial vs mpirun -n 2; (d) a short Taylor run is reproducible and c
 the full 80 us Taylor bar against the seed paper's ranges (Table 3 and the other codes).
 """
 import math
-import os
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -24,10 +20,10 @@ from fenics_plast.quantities import Quantities
 from fenics_plast.runner_explicit import build_explicit
 from fenics_plast.solvers.explicit import ExplicitDynamics
 from fenics_plast.solvers.time_integration import quad_min_size
+from scene_runs import needs_mpirun, serial_and_two_ranks
 
 REPO = Path(__file__).resolve().parent.parent
 TOML = REPO / "demos" / "taylor_bar.toml"
-SERIAL = MPI.COMM_WORLD.size == 1
 
 
 def taylor(*overrides):
@@ -152,21 +148,9 @@ def test_q1_element_runs():
     assert res["element"] == "q1" and res["energy_balance_error"] < 0.01
 
 
-@pytest.mark.skipif(not SERIAL, reason="starts its own mpirun")
-@pytest.mark.skipif(shutil.which("mpirun") is None and not Path("/usr/bin/mpirun").exists(), reason="no mpirun")
+@needs_mpirun
 def test_serial_vs_mpi(tmp_path):
-    script = REPO / "tests" / "mpi_explicit_taylor.py"
-    mpirun = "/usr/bin/mpirun" if Path("/usr/bin/mpirun").exists() else shutil.which("mpirun")
-    out1, out2 = tmp_path / "serial.npz", tmp_path / "mpi.npz"
-    # a clean environment: this process is an MPI singleton whose OMPI_/PMIX_ variables confuse mpirun
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "OPAL_"))}
-    p = subprocess.run([sys.executable, str(script), str(out1), "5"], cwd=REPO, timeout=300, env=env,
-                       capture_output=True, text=True)
-    assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
-    p = subprocess.run([mpirun, "--allow-run-as-root", "--oversubscribe", "-n", "2", sys.executable, str(script),
-                        str(out2), "5"], cwd=REPO, timeout=300, env=env, capture_output=True, text=True)
-    assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
-    a, b = np.load(out1), np.load(out2)
+    a, b = serial_and_two_ranks(REPO / "tests" / "mpi_explicit_taylor.py", ["5"], tmp_path)
     assert int(b["ranks"]) == 2
     assert int(a["steps"]) == int(b["steps"])
     np.testing.assert_allclose(a["X"], b["X"], atol=1e-12)

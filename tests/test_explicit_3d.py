@@ -3,9 +3,6 @@ form, a short Taylor impact (energy balance, both elements, checkpoint round tri
 ``mpirun -n 2``. The cases: tests/explicit_3d_cases.py.
 """
 import math
-import os
-import shutil
-import subprocess
 import sys
 from pathlib import Path
 
@@ -21,9 +18,9 @@ from fenics_plast.solvers.fused_force_hex import HEX_VERTICES
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from explicit_3d_cases import quarter_bar, taylor_3d  # noqa: E402
+from scene_runs import needs_mpirun, serial_and_two_ranks  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
-SERIAL = MPI.COMM_WORLD.size == 1
 E, NU, RHO = 200e3, 0.3, 7.8e-9
 
 
@@ -158,20 +155,9 @@ def test_quarter_bar_mesh():
     assert all(MPI.COMM_WORLD.allreduce(len(f), op=MPI.SUM) > 0 for f in facets.values())
 
 
-@pytest.mark.skipif(not SERIAL, reason="starts its own mpirun")
-@pytest.mark.skipif(shutil.which("mpirun") is None and not Path("/usr/bin/mpirun").exists(), reason="no mpirun")
+@needs_mpirun
 def test_serial_vs_mpi_3d(tmp_path):
-    script = REPO / "tests" / "mpi_explicit_3d.py"
-    mpirun = "/usr/bin/mpirun" if Path("/usr/bin/mpirun").exists() else shutil.which("mpirun")
-    out1, out2 = tmp_path / "serial.npz", tmp_path / "mpi.npz"
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "OPAL_"))}
-    p = subprocess.run([sys.executable, str(script), str(out1), "2"], cwd=REPO, timeout=300, env=env,
-                       capture_output=True, text=True)
-    assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
-    p = subprocess.run([mpirun, "--allow-run-as-root", "--oversubscribe", "-n", "2", sys.executable, str(script),
-                        str(out2), "2"], cwd=REPO, timeout=300, env=env, capture_output=True, text=True)
-    assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
-    a, b = np.load(out1), np.load(out2)
+    a, b = serial_and_two_ranks(REPO / "tests" / "mpi_explicit_3d.py", ["2"], tmp_path)
     assert int(b["ranks"]) == 2
     assert int(a["steps"]) == int(b["steps"])
     np.testing.assert_allclose(a["X"], b["X"], atol=1e-12)

@@ -15,7 +15,6 @@ import json
 import math
 import os
 import re
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -31,6 +30,7 @@ from fenics_plast import cli
 from fenics_plast.problem import load_problem
 from fenics_plast.runner_explicit import build_explicit
 from fenics_plast.study.plan import parse_vary
+from scene_runs import needs_mpirun, serial_and_two_ranks
 
 REPO = Path(__file__).resolve().parent.parent
 TOML = REPO / "demos" / "taylor_bar.toml"
@@ -197,20 +197,9 @@ def test_fused_equals_ufl_with_mass_scaling(tmp_path):
     assert sb["energy"] == pytest.approx(sa["energy"], rel=1e-8)
 
 
-@pytest.mark.skipif(not SERIAL, reason="starts its own mpirun")
-@pytest.mark.skipif(not Path("/usr/bin/mpirun").exists() and shutil.which("mpirun") is None, reason="no mpirun")
+@needs_mpirun
 def test_serial_vs_mpi_mass_scaling(tmp_path):
-    script = REPO / "tests" / "mpi_mass_scaling.py"
-    mpirun = "/usr/bin/mpirun" if Path("/usr/bin/mpirun").exists() else shutil.which("mpirun")
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "OPAL_"))}
-    a_npz, b_npz = tmp_path / "serial.npz", tmp_path / "mpi.npz"
-    p = subprocess.run([sys.executable, str(script), str(a_npz), "8", "0.1"], cwd=REPO, timeout=300, env=env,
-                       capture_output=True, text=True)
-    assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
-    p = subprocess.run([mpirun, "--allow-run-as-root", "--oversubscribe", "-n", "2", sys.executable, str(script),
-                        str(b_npz), "8", "0.1"], cwd=REPO, timeout=300, env=env, capture_output=True, text=True)
-    assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
-    a, b = np.load(a_npz), np.load(b_npz)
+    a, b = serial_and_two_ranks(REPO / "tests" / "mpi_mass_scaling.py", ["8", "0.1"], tmp_path)
     assert int(b["ranks"]) == 2 and int(a["steps"]) == int(b["steps"])
     assert int(a["cells"]) == int(b["cells"]) > 0
     np.testing.assert_allclose(a["X"], b["X"], atol=1e-12)

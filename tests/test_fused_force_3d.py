@@ -13,6 +13,7 @@ from mpi4py import MPI
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Hardening, Material
 from fenics_plast.solvers.explicit import ExplicitDynamics
+from test_fused_force import two_increments
 
 RHO = 8.93e-9   # tonne/mm^3
 
@@ -49,25 +50,12 @@ def field_3d(X, scale):
     return u.reshape(-1)
 
 
-def two_increments(s):
-    """Increment 1: 0 -> U1 (yields), increment 2: U1 -> U2, as the explicit step applies them."""
-    U1, U2 = field_3d(s._X, 1.0), field_3d(s._X, 1.04)
-    s.u.x.array[:] = U1
-    s._internal_force()
-    s.u_n.x.array[:] = U1
-    if s.theta is not None:
-        s.theta_n.x.array[:] = s.theta.x.array
-    s.u.x.array[:] = U2
-    s._internal_force()
-    return s
-
-
 @pytest.mark.parametrize("element,model", [("q1p0", "isochoric"), ("q1", "isochoric"), ("q1p0", "seed"),
                                            ("q1", "seed")])
 def test_fused_force_3d_equals_ufl_residual(element, model):
     mesh = distorted_box(MPI.COMM_SELF)
-    fused = two_increments(_solver(mesh, element, "fused", model))
-    ufl = two_increments(_solver(mesh, element, "ufl", model))
+    fused = two_increments(_solver(mesh, element, "fused", model), field_3d)
+    ufl = two_increments(_solver(mesh, element, "ufl", model), field_3d)
     assert fused.bs == 3 and fused.qmap.nq == 8
     assert fused.qmap.eqps.max() > 0.02, "the test state must be plastic"
     fmax = np.abs(ufl.f).max()

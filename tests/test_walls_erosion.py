@@ -12,9 +12,6 @@ axis cells eroded, and a run stopped and restored from its state goes on as the 
 (d) Serial = 2 ranks. (e) Scene checks.
 """
 import math
-import os
-import shutil
-import subprocess
 import sys
 from pathlib import Path
 
@@ -25,6 +22,7 @@ from mpi4py import MPI
 from fenics_plast.errors import RunError, SceneError
 from fenics_plast.problem import load_problem
 from fenics_plast.runner_explicit import build_explicit
+from scene_runs import needs_mpirun, serial_and_two_ranks
 
 REPO = Path(__file__).resolve().parent.parent
 BAR = REPO / "tests" / "scenes" / "bar_on_wall.toml"
@@ -233,20 +231,11 @@ def test_taylor_400_restored_state_goes_on_as_uninterrupted():
 # ----------------------------------------------------------------------------------------------
 # (d) serial = 2 ranks
 
-@pytest.mark.skipif(not SERIAL, reason="starts its own mpirun")
-@pytest.mark.skipif(shutil.which("mpirun") is None and not Path("/usr/bin/mpirun").exists(), reason="no mpirun")
+@needs_mpirun
 def test_taylor_400_serial_vs_mpi(tmp_path):
-    script = REPO / "tests" / "mpi_explicit_taylor.py"
-    mpirun = "/usr/bin/mpirun" if Path("/usr/bin/mpirun").exists() else shutil.which("mpirun")
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "OPAL_"))}
-    out1, out2 = tmp_path / "serial.npz", tmp_path / "mpi.npz"
     sets = [s for s in TAYLOR_400 if "history_points" not in s]
-    for cmd, out in (([sys.executable], out1),
-                     ([mpirun, "--allow-run-as-root", "--oversubscribe", "-n", "2", sys.executable], out2)):
-        p = subprocess.run([*cmd, str(script), str(out), "45", "isochoric", *sets], cwd=REPO, timeout=600,
-                           env=env, capture_output=True, text=True)
-        assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
-    a, b = np.load(out1), np.load(out2)
+    a, b = serial_and_two_ranks(REPO / "tests" / "mpi_explicit_taylor.py", ["45", "isochoric", *sets], tmp_path,
+                                timeout=600)
     assert int(b["ranks"]) == 2 and int(a["steps"]) == int(b["steps"])
     assert int(a["eroded_cells"]) == int(b["eroded_cells"]) >= 1
     assert np.abs(a["u"] - b["u"]).max() <= 1e-8 * np.abs(a["u"]).max()

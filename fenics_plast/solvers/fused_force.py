@@ -151,6 +151,25 @@ def erodes(J, th, erosion_ratio):
 
 
 @_njit
+def fbar_points(c, th, th_n, J, J_n, fbar, Fu, factor):
+    """The F-bar part of pass 1 at the points of cell c (quadrilaterals and hexahedra): with fbar,
+    Fu *= ((theta J_n) / (theta_n J))^(1/3) (seed eq. 10; on quadrilaterals Fu's off-block entries are 0
+    and stay 0) and factor = J / theta; without, factor = 1. J, J_n (nq,): the points' Jacobians now and
+    at the last step; th, th_n: the cell's mean dilatation now and then."""
+    nq = J.shape[0]
+    for q in range(nq):
+        p = c * nq + q
+        if fbar:
+            s = _cbrt((th * J_n[q]) / (th_n * J[q]))
+            for i in range(3):
+                for j in range(3):
+                    Fu[p, i, j] *= s
+            factor[p] = J[q] / th
+        else:
+            factor[p] = 1.0
+
+
+@_njit
 def _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta):
     """Pass 1: Fu (n,3,3) at every point, F^-1 (n,5: rr, rz, zr, zz, hh), J/theta (n,), theta (nc,).
     Cells with alive[c] = 0 are eroded (frozen: :func:`_freeze_quad`); a cell that :func:`erodes` now
@@ -204,18 +223,7 @@ def _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio,
             _freeze_quad(c, nq, Fu, Finv, factor)
             continue
         theta[c] = th
-        for q in range(nq):
-            p = c * nq + q
-            if fbar:
-                s = _cbrt((th * J_n[q]) / (th_n * J[q]))
-                Fu[p, 0, 0] *= s
-                Fu[p, 0, 1] *= s
-                Fu[p, 1, 0] *= s
-                Fu[p, 1, 1] *= s
-                Fu[p, 2, 2] *= s
-                factor[p] = J[q] / th
-            else:
-                factor[p] = 1.0
+        fbar_points(c, th, th_n, J, J_n, fbar, Fu, factor)
 
 
 @_njit

@@ -34,7 +34,7 @@ import numba
 import numpy as np
 
 from fenics_plast.material import kernels
-from fenics_plast.solvers.fused_force import _cbrt, erodes
+from fenics_plast.solvers.fused_force import erodes, fbar_points
 
 _njit = numba.njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
 
@@ -182,16 +182,7 @@ def hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, Fu, F
             _freeze_hex(c, nq, Fu, Finv, factor)
             continue
         theta[c] = th
-        for q in range(nq):
-            p = c * nq + q
-            if fbar:
-                s = _cbrt((th * J_n[q]) / (th_n * J[q]))
-                for i in range(3):
-                    for j in range(3):
-                        Fu[p, i, j] *= s
-                factor[p] = J[q] / th
-            else:
-                factor[p] = 1.0
+        fbar_points(c, th, th_n, J, J_n, fbar, Fu, factor)
 
 
 @_njit

@@ -174,12 +174,22 @@ def _quad_eig_dt(x, cell_dofs, cells, mass, lam, mu, axisymmetric, fbar, out):
                         dev += 2.0 * m * (B[q, s, i] - tr[i] / 3.0) * (B[q, s, j] - tr[j] / 3.0)
                     dev += m * B[q, 3, i] * B[q, 3, j]
                     K[i, j] += (dev + kap * vb[i] * vb[j]) * W[q]
-        for i in range(8):
-            for j in range(8):
-                K[i, j] /= np.sqrt(mass[c, i // 2] * mass[c, j // 2])
-        w2 = np.linalg.eigvalsh(K)[-1]
-        out[k] = 2.0 / np.sqrt(w2) if w2 > 0.0 else np.inf
+        out[k] = element_step(K, mass[c], 2)
     return out
+
+
+@numba.njit(cache=True)
+def element_step(K, mass_c, bs):
+    """2 / omega_max [s] of an element of stiffness K (n, n) [N/mm] and nodal masses mass_c (n / bs,)
+    [tonne] (bs dofs per node): omega_max^2 the largest eigenvalue of M^-1/2 K M^-1/2 (inf if none is
+    positive). K is overwritten. Quadrilaterals (:func:`_quad_eig_dt`) and hexahedra
+    (:func:`fenics_plast.solvers.hex_step.hex_eig_dt`)."""
+    n = K.shape[0]
+    for i in range(n):
+        for j in range(n):
+            K[i, j] /= np.sqrt(mass_c[i // bs] * mass_c[j // bs])
+    w2 = np.linalg.eigvalsh(K)[-1]
+    return 2.0 / np.sqrt(w2) if w2 > 0.0 else np.inf
 
 
 @numba.njit(cache=True)
