@@ -72,7 +72,8 @@ def gather_cells(V, u_values, cell_values):
     """
     n_cells = V.mesh.topology.index_map(2).size_local
     x = V.tabulate_dof_coordinates()[:, :2] + np.asarray(u_values).reshape(-1, 2)
-    cells = V.dofmap.list.array.reshape(-1, 4)[:n_cells][:, QUAD_CYCLE]
+    from fenics_plast import dolfinx_compat as dc
+    cells = dc.cell_dofs(V)[:n_cells][:, QUAD_CYCLE]
     parts = COMM.gather((x[cells], np.asarray(cell_values)[:n_cells]), root=0)
     if COMM.rank != 0:
         return None, None

@@ -33,7 +33,6 @@ import os
 import sys
 from pathlib import Path
 
-import basix
 import numpy as np
 import ufl
 from dolfinx import fem
@@ -41,6 +40,7 @@ from dolfinx import mesh as dm
 from dolfinx.fem import petsc as fpetsc
 from mpi4py import MPI
 
+from fenics_plast import dolfinx_compat as dc      # the calls that differ between dolfinx 0.5 and 0.9
 from fenics_plast.contact import FlatWall, PenaltyContact
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Hardening, Material
@@ -53,8 +53,8 @@ r1, r2, height = 1.0, 2.0, 1.0          # a ring section: r in [1, 2] mm, z in [
 mesh = dm.create_rectangle(comm, [np.array([r1, 0.0]), np.array([r2, height])], [2, 2],
                            dm.CellType.quadrilateral)
 kin = Kinematics(mesh, "axisymmetric")
-V = fem.VectorFunctionSpace(mesh, ("Lagrange", 1))
-D0 = fem.FunctionSpace(mesh, ("DG", 0))
+V = dc.vector_space(mesh)                   # CG1 displacements, 2 components
+D0 = dc.function_space(mesh, "DG", 0)
 u = fem.Function(V, name="u")
 n_cells = mesh.topology.index_map(2).size_local
 cells = np.arange(n_cells, dtype=np.int32)
@@ -81,9 +81,9 @@ print("w =", kin.weight)
 # %%
 a, s, c = 0.10, 0.05, -0.08
 u.interpolate(lambda x: np.vstack([a * x[0] + s * x[1], c * x[1]]))
-pts, _ = basix.make_quadrature(basix.QuadratureType.Default, basix.CellType.quadrilateral, kin.degree)
-F_qp = fem.Expression(kin.F(u), pts).eval(cells).reshape(-1, 3, 3)
-X_qp = fem.Expression(kin.x, pts).eval(cells).reshape(-1, 2)
+pts, _ = dc.quadrature_rule("quadrilateral", kin.degree)
+F_qp = dc.eval_expression(fem.Expression(kin.F(u), pts), mesh, cells).reshape(-1, 3, 3)
+X_qp = dc.eval_expression(fem.Expression(kin.x, pts), mesh, cells).reshape(-1, 2)
 F_exact = np.zeros_like(F_qp)
 F_exact[:, 0, 0], F_exact[:, 0, 1], F_exact[:, 1, 1] = 1 + a, s, 1 + c
 F_exact[:, 2, 2] = 1 + a + s * X_qp[:, 1] / X_qp[:, 0]
@@ -114,14 +114,14 @@ def cell_mean_dilatation(u_fun):
 
 u.interpolate(lambda x: np.vstack([0.2 * x[0] ** 2 - 0.1 * x[1], 0.15 * x[0] * x[1]]))   # J varies in a cell
 theta = cell_mean_dilatation(u)
-J_qp = fem.Expression(kin.J(u), pts).eval(cells)
+J_qp = dc.eval_expression(fem.Expression(kin.J(u), pts), mesh, cells)
 Fbar = kin.Fbar(u, theta)
-detFbar_qp = fem.Expression(ufl.det(Fbar), pts).eval(cells)
+detFbar_qp = dc.eval_expression(fem.Expression(ufl.det(Fbar), pts), mesh, cells)
 iso = fem.Expression(Fbar / ufl.det(Fbar) ** (1 / 3) - kin.F(u) / kin.J(u) ** (1 / 3), pts)
 print("J at the 4 points of cell 0:       ", np.round(J_qp[0], 5))
 print("det Fbar at the 4 points of cell 0:", np.round(detFbar_qp[0], 5), " theta =", round(theta.x.array[0], 5))
 fbar_error = np.abs(detFbar_qp - theta.x.array[:n_cells, None]).max()
-iso_error = np.abs(iso.eval(cells)).max()
+iso_error = np.abs(dc.eval_expression(iso, mesh, cells)).max()
 print(f"J varies by {np.ptp(J_qp, axis=1).max():.3f} within a cell; max |det Fbar - theta| = {fbar_error:.1e}, "
       f"max |iso(Fbar) - iso(F)| = {iso_error:.1e}")
 
@@ -137,9 +137,7 @@ print(f"J varies by {np.ptp(J_qp, axis=1).max():.3f} within a cell; max |det Fba
 # quadrature degree and scheme: `kin.dx` carries them.
 
 # %%
-cell = mesh.ufl_cell()
-QT = fem.FunctionSpace(mesh, ufl.TensorElement("Quadrature", cell, degree=kin.degree, shape=(3, 3),
-                                               quad_scheme="default"))
+QT = dc.quadrature_space(mesh, kin.degree, (3, 3))     # 3 x 3 values at each point of the rule
 tau = fem.Function(QT, name="tau")
 v = ufl.TestFunction(V)
 R_u = kin.internal_virtual_work(u, theta, tau, v)
@@ -157,7 +155,7 @@ u.interpolate(lambda x: np.vstack([a * x[0], c * x[1]]))
 theta = cell_mean_dilatation(u)
 sigma = np.array([[30.0, 0.0, 0.0], [0.0, 100.0, 0.0], [0.0, 0.0, 30.0]])      # MPa
 nq = len(pts)
-blocks = QT.dofmap.list.array.reshape(-1, nq)[:n_cells].reshape(-1)     # dof block of each (cell, point)
+blocks = dc.cell_dofs(QT)[:n_cells].reshape(-1)     # dof block of each (cell, point)
 tau.x.array.reshape(-1, 9)[blocks] = np.repeat(theta.x.array[:n_cells], nq)[:, None] * sigma.reshape(1, 9)
 tau.x.scatter_forward()
 R_form = fem.form(kin.internal_virtual_work(u, theta, tau, v))

@@ -113,12 +113,6 @@ class KeyedTable:
         return self.values[pos]
 
 
-def _is_mixed(element) -> bool:
-    import ufl
-    return isinstance(element, ufl.MixedElement) and not isinstance(element, (ufl.VectorElement,
-                                                                              ufl.TensorElement))
-
-
 def cell_keys(mesh) -> np.ndarray:
     """Original (input) index of every local cell, owned then ghost, int64."""
     return np.asarray(mesh.topology.original_cell_index, dtype=np.int64)
@@ -134,13 +128,14 @@ def dof_keys(space) -> np.ndarray:
     """Key of every local entry (owned then ghost, unrolled: block * bs + component) of a dolfinx
     function space's array: continuous degree-1 (nodes of a first-order mesh: the input node index)
     and degree-0 (cells: the original cell index) spaces, blocked or not, and mixed spaces of them."""
-    el = space.ufl_element()
+    from fenics_plast import dolfinx_compat as dc
+    kind = dc.space_kind(space)
     dm = space.dofmap
     n_local = (dm.index_map.size_local + dm.index_map.num_ghosts) * dm.index_map_bs
-    if _is_mixed(el):
+    if kind == "mixed":
         keys = np.full(n_local, -1, dtype=np.int64)
         offset = 0
-        for i in range(el.num_sub_elements()):
+        for i in range(space.num_sub_spaces):
             sub, parent = space.sub(i).collapse()
             k = dof_keys(sub)
             keys[np.asarray(parent)] = k + offset
@@ -151,17 +146,17 @@ def dof_keys(space) -> np.ndarray:
     mesh = space.mesh
     bs = dm.index_map_bs
     nblocks = dm.index_map.size_local + dm.index_map.num_ghosts
-    cells = dm.list.array.reshape(-1, dm.dof_layout.num_dofs)
+    cells = dc.cell_dofs(space)
     base = np.full(nblocks, -1, dtype=np.int64)
-    if el.degree() == 0:
+    if kind == "degree 0":
         base[cells[:, 0]] = cell_keys(mesh)[: cells.shape[0]]
-    elif el.degree() == 1 and "Discontinuous" not in el.family() and el.family() not in ("DG", "DQ"):
-        gd = mesh.geometry.dofmap.array.reshape(cells.shape[0], -1)
+    elif kind == "continuous degree 1":
+        gd = dc.geometry_dofs(mesh)
         if gd.shape != cells.shape:
             raise ValueError("dof_keys: the space's nodes are not the mesh's geometry nodes")
         base[cells.reshape(-1)] = np.asarray(mesh.geometry.input_global_indices, dtype=np.int64)[gd.reshape(-1)]
     else:
-        raise ValueError(f"dof_keys: unsupported element {el} (degree-1 continuous or degree-0 only)")
+        raise ValueError(f"dof_keys: unsupported element {space.ufl_element()} (degree-1 continuous or degree-0 only)")
     if (base < 0).any() or bs > SLOTS:
         raise ValueError("dof_keys: could not key every dof")
     return (base[:, None] * SLOTS + np.arange(bs)[None, :]).reshape(-1)

@@ -72,6 +72,7 @@ import dolfinx.fem.petsc as fpetsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from fenics_plast import dolfinx_compat as dc
 from fenics_plast.expressions import piecewise_linear
 from fenics_plast.tools import PENALTY_FACTOR, Circle, Plane, Tool, _TINY, default_penalty
 
@@ -198,9 +199,8 @@ class ContactPair:
                              f"{gdim}-D body")
         self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags, metadata=nodal_rule(mesh))(tag)
         # history: [t_n (gdim), N_n (gdim), p_n] per node
-        cell = mesh.ufl_cell()
         self.hist_size = 2 * gdim + 1
-        self.H = fem.FunctionSpace(mesh, ufl.VectorElement("Lagrange", cell, 1, dim=self.hist_size))
+        self.H = dc.function_space(mesh, "Lagrange", 1, (self.hist_size,))
         self.hist = fem.Function(self.H, name=f"contact_history_{tool.name}")
         self.omega = self._nodal_weight(facet_tags, tag, c.weight)
         lam, lam_c = s.load, c.lam_c
@@ -258,7 +258,7 @@ class ContactPair:
             slipping = incontact * ufl.conditional(ufl.gt(abs(self.t_trial), self.bound), 1.0, 0.0)
         else:
             slipping = incontact
-        self.S = fem.FunctionSpace(mesh, ufl.VectorElement("Lagrange", cell, 1, dim=2))
+        self.S = dc.function_space(mesh, "Lagrange", 1, (2,))
         qs = ufl.TestFunction(self.S)
         self._status = fem.form(ufl.inner(ufl.as_vector([incontact, slipping]), qs) * self.ds)
         self._status_den = fpetsc.assemble_vector(fem.form(ufl.inner(ufl.as_vector([1.0, 1.0]), qs) * self.ds))
@@ -298,7 +298,7 @@ class ContactPair:
     def _nodal_weight(self, facet_tags, tag, weight):
         """CG1 Function: int N_i w dA0 (exact) / int N_i dA0 (nodal rule) at the pair's nodes."""
         mesh = self.contact.solver.mesh
-        S = fem.FunctionSpace(mesh, ("Lagrange", 1))
+        S = dc.function_space(mesh, "Lagrange", 1)
         q = ufl.TestFunction(S)
         exact = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags,
                             metadata={"quadrature_degree": 4})(tag)
@@ -310,7 +310,7 @@ class ContactPair:
         d[d == 0.0] = 1.0
         num.pointwiseDivide(num, den)
         om = fem.Function(S, name=f"contact_weight_{self.tool.name}")
-        num.copy(om.vector)
+        num.copy(dc.petsc_vec(om))
         om.x.scatter_forward()
         return om
 
@@ -321,7 +321,7 @@ class ContactPair:
         fpetsc.assemble_vector(b, self._num)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         b.pointwiseDivide(b, self._den)
-        b.copy(self.hist.vector)
+        b.copy(dc.petsc_vec(self.hist))
         self.hist.x.scatter_forward()
 
     def status(self):

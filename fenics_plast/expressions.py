@@ -30,6 +30,8 @@ import operator
 import numpy as np
 import ufl
 
+from fenics_plast import dolfinx_compat as dc
+
 MAX_LENGTH = 500
 MAX_DEPTH = 40
 SPACE = ("x", "y", "z")
@@ -38,7 +40,7 @@ CONSTANTS = {"pi": math.pi, "e": math.e}
 FUNCTIONS = {
     "sin": (1, np.sin, ufl.sin), "cos": (1, np.cos, ufl.cos), "tan": (1, np.tan, ufl.tan),
     "asin": (1, np.arcsin, ufl.asin), "acos": (1, np.arccos, ufl.acos),
-    "atan": (1, np.arctan, ufl.atan), "atan2": (2, np.arctan2, ufl.atan_2),
+    "atan": (1, np.arctan, ufl.atan), "atan2": (2, np.arctan2, dc.atan2),
     "sinh": (1, np.sinh, ufl.sinh), "cosh": (1, np.cosh, ufl.cosh), "tanh": (1, np.tanh, ufl.tanh),
     "sqrt": (1, np.sqrt, ufl.sqrt), "exp": (1, np.exp, ufl.exp), "log": (1, np.log, ufl.ln),
     "abs": (1, np.abs, abs), "min": (2, np.minimum, ufl.min_value), "max": (2, np.maximum, ufl.max_value),

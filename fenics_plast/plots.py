@@ -210,16 +210,17 @@ def cells_table(V, positions, cell_values, value_name: str) -> dict[str, np.ndar
     """Columns x1, y1, ..., x4, y4 [mm] (cyclic vertex order) and ``value_name`` of every cell,
     gathered on rank 0 (other ranks get empty columns), for ``RunOutput.write_csv``.
 
-    V : the P1 vector FunctionSpace of the nodes (dolfinx; ``V.dofmap.list``: cell -> node block).
+    V : the P1 vector FunctionSpace of the nodes (dolfinx; its dofmap: cell -> node block).
     positions : (n_local_nodes, 2) current node positions, indexed like V's dof blocks.
     cell_values : DG0 Function (one value per cell). Collective over V's communicator.
     """
+    from fenics_plast import dolfinx_compat as dc     # dolfinx only here: `fenics-plast plot` needs none
     mesh = V.mesh
     tdim = mesh.topology.dim
     n_own = mesh.topology.index_map(tdim).size_local
-    nodes = np.asarray(V.dofmap.list.array).reshape(-1, 4)[:n_own][:, _QUAD_CYCLE]
+    nodes = np.asarray(dc.cell_dofs(V))[:n_own][:, _QUAD_CYCLE]
     xy = np.asarray(positions)[nodes, :2].reshape(n_own, 8)
-    dg = np.asarray(cell_values.function_space.dofmap.list.array).reshape(-1)[:n_own]
+    dg = np.asarray(dc.cell_dofs(cell_values.function_space)).reshape(-1)[:n_own]
     val = np.asarray(cell_values.x.array)[dg]
     local = np.column_stack([xy, val])
     parts = mesh.comm.gather(local, root=0)

@@ -19,18 +19,15 @@ Never write a quadrature Function to XDMF (segfaults in dolfinx 0.5.2): use ``ce
 """
 from __future__ import annotations
 
-import basix
 import numpy as np
 import ufl
 from dolfinx import fem
 
+from fenics_plast import dolfinx_compat as dc
+
 
 class MaterialUpdateError(RuntimeError):
     """Non-finite values from the material update."""
-
-
-_BASIX_CELL = {"quadrilateral": basix.CellType.quadrilateral, "triangle": basix.CellType.triangle,
-               "hexahedron": basix.CellType.hexahedron}
 
 
 class QuadratureMap:
@@ -41,8 +38,7 @@ class QuadratureMap:
         self.degree = degree
         self.has_tangent = bool(tangent)
         cell = mesh.ufl_cell()
-        self.points, self.weights = basix.make_quadrature(
-            basix.QuadratureType.Default, _BASIX_CELL[cell.cellname()], degree)
+        self.points, self.weights = dc.quadrature_rule(cell.cellname(), degree)
         self.nq = len(self.weights)
         tdim = mesh.topology.dim
         imap = mesh.topology.index_map(tdim)
@@ -53,11 +49,10 @@ class QuadratureMap:
         if n_cells != self.n_owned:
             raise ValueError(f"the material's regions cover {n_cells} cells, the mesh has {self.n_owned} owned cells")
 
-        kw = dict(degree=degree, quad_scheme="default")
-        self.QT = fem.FunctionSpace(mesh, ufl.TensorElement("Quadrature", cell, shape=(3, 3), **kw))
+        self.QT = dc.quadrature_space(mesh, degree, (3, 3))
         self.tau = fem.Function(self.QT, name="tau")
         if self.has_tangent:
-            self.QA = fem.FunctionSpace(mesh, ufl.TensorElement("Quadrature", cell, shape=(9, 9), **kw))
+            self.QA = dc.quadrature_space(mesh, degree, (9, 9))
             self.a = fem.Function(self.QA, name="tangent")
         else:
             self.QA, self.a = None, None
@@ -65,7 +60,7 @@ class QuadratureMap:
         # qp dofmaps: trivial (dof = cell*nq + q) on the owned cells? Checked per space: the
         # numbering of spaces with different block sizes need not agree in parallel.
         def owned_blocks(space):
-            return np.asarray(space.dofmap.list.array.reshape(-1, self.nq)[: self.n_owned].reshape(-1))
+            return np.asarray(dc.cell_dofs(space)[: self.n_owned].reshape(-1))
         self._qdofs = owned_blocks(self.QT)      # block index of each owned qp
         self._qdofs_a = owned_blocks(self.QA) if self.has_tangent else self._qdofs
         arange = np.arange(self.n)
@@ -105,7 +100,7 @@ class QuadratureMap:
         return self._Fu.reshape(self.n, 3, 3)
 
     def evaluate_Fu(self):
-        self.Fu_expr.eval(self.cells, self._Fu)
+        dc.eval_expression(self.Fu_expr, self.mesh, self.cells, self._Fu)
         return self.Fu
 
     def update(self, tangent=True):
@@ -150,10 +145,10 @@ class QuadratureMap:
         if self._cell_weights is None:
             w = self.kin.weight
             expr = fem.Expression(ufl.as_ufl(w) * abs(ufl.JacobianDeterminant(self.mesh)), self.points)
-            wq = expr.eval(self.cells).reshape(self.n_owned, self.nq) * self.weights[None, :]
+            wq = dc.eval_expression(expr, self.mesh, self.cells).reshape(self.n_owned, self.nq) * self.weights[None, :]
             self._cell_weights = wq / wq.sum(axis=1, keepdims=True)
-            self.DG0 = fem.FunctionSpace(self.mesh, ("DG", 0))
-            self._dg0_dofs = self.DG0.dofmap.list.array.reshape(-1)[: self.n_owned]
+            self.DG0 = dc.function_space(self.mesh, "DG", 0)
+            self._dg0_dofs = dc.cell_dofs(self.DG0).reshape(-1)[: self.n_owned]
         return self._cell_weights
 
     def cell_mean(self, values_per_qp, name="cell_mean", out=None):

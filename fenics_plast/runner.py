@@ -22,6 +22,7 @@ import ufl
 from dolfinx import fem, io
 from mpi4py import MPI
 
+from fenics_plast import dolfinx_compat as dc
 from fenics_plast.checkpoint import Checkpointer, scene_settings
 from fenics_plast.material import Hardening, Material, MaterialRegions
 from fenics_plast.meshing import MeshError, mesh_from_file
@@ -171,21 +172,20 @@ def initial_velocity_field(problem, V, cell_tags, groups, scale) -> np.ndarray:
     several tables (on the boundary between two regions) takes the last one's value. The nodes of a
     region are marked on every rank that holds one of its cells and the marks summed on the owners, so
     the result does not depend on the partition (collective)."""
-    from dolfinx.cpp.la import ScatterMode
     mesh = V.mesh
     tdim = mesh.topology.dim
     X = V.tabulate_dof_coordinates()
     n = X.shape[0]
     velocity = np.zeros((n, V.dofmap.index_map_bs))
-    marker = fem.Function(fem.FunctionSpace(mesh, ("Lagrange", 1)))
+    marker = fem.Function(dc.function_space(mesh, "Lagrange", 1))
     for name, iv in problem.initial_velocity.items():
         if iv.regions is None:
             on = np.ones(n, dtype=bool)
         else:
             cells = np.concatenate([cell_tags.find(groups[r][1]) for r in iv.regions]).astype(np.int32)
             marker.x.array[:] = 0.0
-            marker.x.array[fem.locate_dofs_topological(marker.function_space, tdim, cells)] = 1.0
-            marker.x.scatter_reverse(ScatterMode.add)
+            marker.x.array[dc.locate_cell_dofs(marker.function_space, cells)] = 1.0
+            dc.scatter_reverse_add(marker)
             marker.x.scatter_forward()
             on = marker.x.array[:n] > 0.0
         for c, value in enumerate(iv.value):

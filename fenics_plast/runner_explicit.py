@@ -16,6 +16,7 @@ from types import SimpleNamespace
 import numpy as np
 from dolfinx import fem
 
+from fenics_plast import dolfinx_compat as dc
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.errors import RunError, SceneError
 from fenics_plast.schema import M_S
@@ -87,7 +88,7 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
     ana = problem.analysis
     material, density = body_material(problem, ct, groups, mesh.topology.index_map(mesh.topology.dim).size_local)
     kin = Kinematics(mesh, problem.mesh.geometry)
-    V = fem.VectorFunctionSpace(mesh, ("Lagrange", 1))
+    V = dc.vector_space(mesh)
     zero, moving, loads = velocity_constraints(problem, V, ft, groups)
     solver = ExplicitDynamics(mesh, kin, material, density, zero, element=problem.mesh.element,
                               log=log if log is not None else (lambda m: None), internal_force=ana.internal_force,
@@ -283,8 +284,8 @@ def wall_erosion_columns(solver) -> dict:
 def eroded_field(solver, out=None):
     """DG0 function "eroded": 1 on the eroded cells, 0 elsewhere (``out``: reused)."""
     if out is None:
-        out = fem.Function(fem.FunctionSpace(solver.mesh, ("DG", 0)), name="eroded")
-    dofs = out.function_space.dofmap.list.array.reshape(-1)[: solver.n_cells_own]
+        out = fem.Function(dc.function_space(solver.mesh, "DG", 0), name="eroded")
+    dofs = dc.cell_dofs(out.function_space).reshape(-1)[: solver.n_cells_own]
     out.x.array[dofs] = (solver.alive == 0).astype(float)
     out.x.scatter_forward()
     return out

@@ -51,6 +51,8 @@ def contact_length_scale(mesh, facet_tags, tag):
     facet has the tag."""
     import basix
     from mpi4py import MPI
+
+    from fenics_plast import dolfinx_compat as dc
     tdim, fdim = mesh.topology.dim, mesh.topology.dim - 1
     for a, b in ((fdim, tdim), (tdim, fdim)):
         mesh.topology.create_connectivity(a, b)
@@ -64,10 +66,10 @@ def contact_length_scale(mesh, facet_tags, tag):
         for c in f2c.links(f):
             v = ref_facets[int(np.flatnonzero(c2f.links(c) == f)[0])]
             if tdim == 3:
-                xyz = mesh.geometry.x[mesh.geometry.dofmap.links(c), :3]
+                xyz = mesh.geometry.x[dc.geometry_dofs(mesh)[c], :3]
                 total += _cell_volume(xyz) / _facet_area(xyz[v])
             else:
-                xy = mesh.geometry.x[mesh.geometry.dofmap.links(c), :2]
+                xy = mesh.geometry.x[dc.geometry_dofs(mesh)[c], :2]
                 p, q = xy[order], np.roll(xy[order], -1, axis=0)
                 area = 0.5 * abs(float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1])))
                 total += area / float(np.linalg.norm(xy[v[1]] - xy[v[0]]))

@@ -23,6 +23,7 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from fenics_plast import cli  # noqa: E402
+from fenics_plast import dolfinx_compat as dc  # noqa: E402
 from fenics_plast.solvers.explicit import ExplicitDynamics  # noqa: E402
 from fenics_plast.solvers.static import StaticSolver  # noqa: E402
 
@@ -96,7 +97,7 @@ def key_coordinates(kind, npz, comm=MPI.COMM_WORLD):
     n = dm.index_map.size_local * dm.index_map_bs
     q = s.qmap
     qk = qp_keys(s.mesh, q.n_owned, q.nq)
-    qx = fem.Expression(ufl.SpatialCoordinate(s.mesh), q.points).eval(q.cells).reshape(-1, 2)
+    qx = dc.eval_expression(fem.Expression(ufl.SpatialCoordinate(s.mesh), q.points), s.mesh, q.cells).reshape(-1, 2)
     parts = comm.gather((keys[:n], X[:n], qk, qx), root=0)
     if comm.rank == 0:
         out = {}

@@ -27,6 +27,7 @@ from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 
 from fenics_plast import cli
+from fenics_plast import dolfinx_compat as dc
 from fenics_plast.problem import load_problem
 from fenics_plast.runner_explicit import build_explicit
 from fenics_plast.study.plan import parse_vary
@@ -48,7 +49,7 @@ def build(*sets):
 
 def cells_cyclic(s):
     """Owned cells' nodes (basix order) and the same in cyclic order."""
-    nodes = s.V.dofmap.list.array.reshape(-1, 4)[: s.n_cells_own]
+    nodes = dc.cell_dofs(s.V)[: s.n_cells_own]
     return nodes, nodes[:, [0, 1, 3, 2]]
 
 
@@ -70,11 +71,11 @@ def size_dt(s):
 
 def cell_masses(s):
     """Mass of each owned cell, int rho 2 pi r dA, assembled by dolfinx on a DG0 space [tonne]."""
-    D0 = fem.FunctionSpace(s.mesh, ("DG", 0))
+    D0 = dc.function_space(s.mesh, "DG", 0)
     b = fem_petsc.assemble_vector(fem.form(RHO * ufl.TestFunction(D0) * s.kin.weight * s.kin.dx))
     vals = b.array.copy()
     b.destroy()
-    return vals[D0.dofmap.list.array[: s.n_cells_own]]
+    return vals[dc.cell_dofs(D0).reshape(-1)[: s.n_cells_own]]
 
 
 # ----------------------------------------------------------------------------------------------

@@ -17,6 +17,7 @@ from dolfinx import mesh as dm
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from fenics_plast import dolfinx_compat as dc
 from fenics_plast.expressions import (ExpressionError, Expression, FUNCTIONS, Table, Value,
                                       parse_expression, parse_value, piecewise_linear)
 
@@ -30,12 +31,12 @@ def square():
     m = dm.create_unit_square(MPI.COMM_SELF, 2, 2)
     X = ufl.SpatialCoordinate(m)
     cells = np.arange(m.topology.index_map(2).size_local, dtype=np.int32)
-    xy = fem.Expression(X, PTS).eval(cells).reshape(len(cells), len(PTS), 2)
+    xy = dc.eval_expression(fem.Expression(X, PTS), m, cells).reshape(len(cells), len(PTS), 2)
     return m, X, cells, xy
 
 
-def ufl_values(expr, cells):
-    return fem.Expression(expr, PTS).eval(cells).reshape(len(cells), len(PTS))
+def ufl_values(m, expr, cells):
+    return dc.eval_expression(fem.Expression(expr, PTS), m, cells).reshape(len(cells), len(PTS))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -147,7 +148,7 @@ def test_ufl_matches_numpy(square):
     compiled = fem.Expression(e.to_ufl(x=X[0], y=X[1], t=t), PTS)
     for tv in (0.7, 2.5):
         t.value = tv
-        u = compiled.eval(cells).reshape(xy.shape[:2])
+        u = dc.eval_expression(compiled, m, cells).reshape(xy.shape[:2])
         np.testing.assert_allclose(u, e.evaluate(x=xy[..., 0], y=xy[..., 1], t=tv), rtol=1e-13, atol=1e-13)
 
 
@@ -155,7 +156,7 @@ def test_value_ufl_matches_numpy(square):
     m, X, cells, xy = square
     t = fem.Constant(m, PETSc.ScalarType(1.5))
     v = parse_value("2*x + 3*t**2 - y", W)
-    u = ufl_values(v.to_ufl(x=X[0], y=X[1], t=t), cells)
+    u = ufl_values(m, v.to_ufl(x=X[0], y=X[1], t=t), cells)
     np.testing.assert_allclose(u, v.evaluate(x=xy[..., 0], y=xy[..., 1], t=1.5), rtol=1e-14)
     with pytest.raises(ExpressionError, match="cannot be built in UFL"):
         parse_expression("1/0 + x", W).to_ufl(x=X[0])
@@ -183,11 +184,11 @@ def test_table_ufl_matches_numpy(square):
     compiled = fem.Expression(tb.to_ufl(c) + 0 * X[0], PTS)
     for tv in (-1.0, 0.0, 0.3, 1.0, 2.2, 3.0, 5.0):
         c.value = tv
-        np.testing.assert_allclose(compiled.eval(cells), tb.evaluate(tv), rtol=1e-14, atol=1e-15)
+        np.testing.assert_allclose(dc.eval_expression(compiled, m, cells), tb.evaluate(tv), rtol=1e-14, atol=1e-15)
     # a table over x (space) through parse_value
     v = parse_value({"x": [0.0, 0.5, 1.0], "value": [1.0, -1.0, 3.0]}, W, table_variable="x")
     assert v.depends_on_space and not v.depends_on_time
-    np.testing.assert_allclose(ufl_values(v.to_ufl(x=X[0]), cells), v.evaluate(x=xy[..., 0]), rtol=1e-14)
+    np.testing.assert_allclose(ufl_values(m, v.to_ufl(x=X[0]), cells), v.evaluate(x=xy[..., 0]), rtol=1e-14)
 
 
 def test_piecewise_linear_is_np_interp_with_constant_ends():

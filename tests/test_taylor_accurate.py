@@ -21,6 +21,7 @@ import pytest
 import scene_runs
 from mpi4py import MPI
 
+from fenics_plast import dolfinx_compat as dc
 from fenics_plast.meshing import mesh_from_file
 from fenics_plast.problem import load_problem
 
@@ -36,7 +37,7 @@ def cells_of(parameters, refine=1, geo="round_bar_graded.geo"):
     """Per cell (centre r, centre z, width, height) of a structured bar mesh, and its node coordinates."""
     mesh, *_ = mesh_from_file(MPI.COMM_SELF, ROOT / "meshes" / geo, parameters, refine)
     x = mesh.geometry.x[:, :2]
-    P = x[mesh.geometry.dofmap.array.reshape(-1, 4)]     # (cells, 4 vertices, 2)
+    P = x[dc.geometry_dofs(mesh)]     # (cells, 4 vertices, 2)
     lo, hi = P.min(axis=1), P.max(axis=1)
     return np.column_stack([(lo + hi) / 2, hi - lo]), x
 

@@ -18,6 +18,7 @@ from dolfinx import mesh as dm
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from fenics_plast import dolfinx_compat as dc
 from fenics_plast import contact as contact_mod
 from fenics_plast.contact import PenaltyContact
 from fenics_plast.kinematics import Kinematics
@@ -169,7 +170,7 @@ def test_ufl_equals_numpy(name):
     tool = _tools_for_ufl()[name]
     msh = dm.create_rectangle(MPI.COMM_WORLD, [np.array([-1.0, -1.5]), np.array([3.0, 2.0])], [8, 7],
                               dm.CellType.quadrilateral)
-    V = fem.VectorFunctionSpace(msh, ("Lagrange", 1))
+    V = dc.vector_space(msh)
     u = fem.Function(V)
     u.interpolate(lambda x: np.vstack([0.03 * np.sin(3 * x[1] + 1), 0.02 * np.cos(2 * x[0])]))
     x = ufl.SpatialCoordinate(msh) + u
@@ -177,8 +178,8 @@ def test_ufl_equals_numpy(name):
     g, N = tool.gap(x, t)
     q = np.array([[a, b] for a in (0.0, 0.13, 0.41, 0.77, 1.0) for b in (0.0, 0.29, 0.62, 1.0)])
     cells = np.arange(msh.topology.index_map(2).size_local, dtype=np.int32)
-    vals = fem.Expression(ufl.as_vector([g, N[0], N[1]]), q).eval(cells).reshape(-1, 3)
-    xs = fem.Expression(x, q).eval(cells).reshape(-1, 2)
+    vals = dc.eval_expression(fem.Expression(ufl.as_vector([g, N[0], N[1]]), q), msh, cells).reshape(-1, 3)
+    xs = dc.eval_expression(fem.Expression(x, q), msh, cells).reshape(-1, 2)
     g_np, N_np = tool.gap_np(xs, 0.7)
     assert np.max(np.abs(vals[:, 0] - g_np)) <= 1e-12
     assert np.max(np.abs(vals[:, 1:] - N_np)) <= 1e-12
@@ -310,7 +311,7 @@ def _two_blocks():
         pts, cells = np.array(pts), np.array(cells, dtype=np.int64)
     else:
         pts, cells = np.zeros((0, 2)), np.zeros((0, 4), dtype=np.int64)
-    domain = ufl.Mesh(ufl.VectorElement("Lagrange", "quadrilateral", 1))
+    domain = ufl.Mesh(dc.coordinate_element("quadrilateral", 2))
     msh = dm.create_mesh(comm, cells, pts, domain)
     ft = _tags(msh, {1: lambda x: np.isclose(x[1], 0.0) & (x[0] < 2.5),
                      3: lambda x: np.isclose(x[1], 0.0) & (x[0] > 2.5),

@@ -18,6 +18,7 @@ from dolfinx import mesh as dm
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from fenics_plast import dolfinx_compat as dc
 from fenics_plast.tools import (Cylinder, Plane, RevolvedProfile, Sphere, Torus, contact_length_scale,
                                 piecewise_path)
 
@@ -176,7 +177,7 @@ def test_ufl_equals_numpy(name):
     tool = _tools_for_ufl()[name]
     msh = dm.create_box(MPI.COMM_WORLD, [np.array([-1.0, -1.0, -1.0]), np.array([3.0, 2.0, 1.5])], [4, 3, 3],
                         dm.CellType.hexahedron)
-    V = fem.VectorFunctionSpace(msh, ("Lagrange", 1))
+    V = dc.vector_space(msh)
     u = fem.Function(V)
     u.interpolate(lambda x: np.vstack([0.03 * np.sin(3 * x[1] + 1), 0.02 * np.cos(2 * x[0]), 0.02 * x[2] * x[0]]))
     x = ufl.SpatialCoordinate(msh) + u
@@ -184,8 +185,8 @@ def test_ufl_equals_numpy(name):
     g, N = tool.gap(x, t)
     q = np.array([[a, b, c] for a in (0.0, 0.37, 1.0) for b in (0.0, 0.61, 1.0) for c in (0.0, 0.29, 1.0)])
     cells = np.arange(msh.topology.index_map(3).size_local, dtype=np.int32)
-    vals = fem.Expression(ufl.as_vector([g, N[0], N[1], N[2]]), q).eval(cells).reshape(-1, 4)
-    xs = fem.Expression(x, q).eval(cells).reshape(-1, 3)
+    vals = dc.eval_expression(fem.Expression(ufl.as_vector([g, N[0], N[1], N[2]]), q), msh, cells).reshape(-1, 4)
+    xs = dc.eval_expression(fem.Expression(x, q), msh, cells).reshape(-1, 3)
     g_np, N_np = tool.gap_np(xs, 0.7)
     assert np.max(np.abs(vals[:, 0] - g_np)) <= 1e-12
     assert np.max(np.abs(vals[:, 1:] - N_np)) <= 1e-12

@@ -22,9 +22,9 @@ import math
 
 import numpy as np
 from dolfinx import fem
-from dolfinx.cpp.la import ScatterMode
 from mpi4py import MPI
 
+from fenics_plast import dolfinx_compat as dc
 from fenics_plast.solvers import hex_step
 from fenics_plast.solvers import time_integration as ti
 from fenics_plast.solvers.time_integration import _quad_min_size
@@ -180,7 +180,7 @@ class CellSteps:
         np.add.at(col, self._cell_nodes[low].reshape(-1), ((new - old)[:, None] * self._cell_mass[low]).reshape(-1))
         nodes[:] = col[:, None]
         if self.comm.size > 1:
-            self._dm.x.scatter_reverse(ScatterMode.add)
+            dc.scatter_reverse_add(self._dm)
         dm = add[:n]
         ch = np.flatnonzero(dm > 0.0)
         v = self.v.x.array[ch]

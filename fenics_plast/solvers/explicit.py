@@ -71,8 +71,7 @@ from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from dolfinx.cpp.la import ScatterMode
-
+from fenics_plast import dolfinx_compat as dc
 from fenics_plast.errors import RunError
 from fenics_plast.material import MaterialRegions
 from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
@@ -146,7 +145,7 @@ class ExplicitDynamics(CellSteps):
         self.timings = {}
         t0 = time.perf_counter()
 
-        V = fem.VectorFunctionSpace(mesh, ("Lagrange", 1))
+        V = dc.vector_space(mesh)
         self.V = V
         self.u = fem.Function(V, name="displacement")
         self.u_n = fem.Function(V, name="displacement_previous")
@@ -163,8 +162,7 @@ class ExplicitDynamics(CellSteps):
         self.three_d = kin.three_d
         X = V.tabulate_dof_coordinates()[:, : self.bs]
         self._X = np.ascontiguousarray(X)
-        nv = 8 if self.three_d else 4
-        cell_nodes = np.ascontiguousarray(V.dofmap.list.array.reshape(-1, nv)[: self.n_cells_own], dtype=np.int64)
+        cell_nodes = np.ascontiguousarray(dc.cell_dofs(V)[: self.n_cells_own], dtype=np.int64)
         self._cell_nodes = cell_nodes                                # basix order
         # quadrilaterals: cyclic vertex order (size, element step); hexahedra: basix order
         self._cell_dofs = cell_nodes if self.three_d else np.ascontiguousarray(cell_nodes[:, _QUAD_CYCLE])
@@ -242,9 +240,9 @@ class ExplicitDynamics(CellSteps):
 
     def _cell_density(self):
         """DG0 density of each cell [tonne/mm^3] (several materials)."""
-        D0 = fem.FunctionSpace(self.mesh, ("DG", 0))
+        D0 = dc.function_space(self.mesh, "DG", 0)
         rho = fem.Function(D0, name="density")
-        dofs = D0.dofmap.list.array.reshape(-1)[: self.n_cells_own]
+        dofs = dc.cell_dofs(D0).reshape(-1)[: self.n_cells_own]
         rho.x.array[dofs] = self.material.per_cell(self.density)
         rho.x.scatter_forward()
         return rho
@@ -275,7 +273,7 @@ class ExplicitDynamics(CellSteps):
         """Forms and expression of the dolfinx route (compiled once)."""
         mesh = self.mesh
         if self.element == "q1p0":
-            D0 = fem.FunctionSpace(mesh, ("DG", 0))
+            D0 = dc.function_space(mesh, "DG", 0)
             self.D0 = D0
             self.theta = fem.Function(D0, name="theta")
             self.theta_n = fem.Function(D0, name="theta_previous")
@@ -417,7 +415,7 @@ class ExplicitDynamics(CellSteps):
                 # rank-local: the global kinetic-energy check of run() reports it
                 self._failure = f"non-finite stress or internal force at step {self.step_count + 1}"
             if self.comm.size > 1:
-                self._ffun.x.scatter_reverse(ScatterMode.add)
+                dc.scatter_reverse_add(self._ffun)
             return
         if self.theta is not None:
             self._update_theta()

@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import math
 
-import basix
 import numba
 import numpy as np
 from numba.core import types
@@ -83,7 +82,8 @@ class CellGeometry:
 def quadrature(degree, cell="quadrilateral"):
     """Points (nq, tdim) and weights (nq,) of the default basix rule on the reference cell
     ("quadrilateral" or "hexahedron")."""
-    return basix.make_quadrature(basix.QuadratureType.Default, getattr(basix.CellType, cell), degree)
+    from fenics_plast.dolfinx_compat import quadrature_rule    # basix's call differs by version
+    return quadrature_rule(cell, degree)
 
 
 @_njit

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import math
 
-import basix
 import numba
 import numpy as np
 
@@ -62,7 +61,8 @@ def hex_shape_functions(points):
 
 def hex_quadrature(degree):
     """Points (nq, 3) and weights (nq,) of the default basix rule on the reference hexahedron."""
-    return basix.make_quadrature(basix.QuadratureType.Default, basix.CellType.hexahedron, degree)
+    from fenics_plast.dolfinx_compat import quadrature_rule    # basix's call differs by version
+    return quadrature_rule("hexahedron", degree)
 
 
 class HexGeometry:

@@ -26,6 +26,7 @@ import dolfinx.fem.petsc as fpetsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from fenics_plast import dolfinx_compat as dc
 from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 
 from fenics_plast.errors import RunError
@@ -66,13 +67,12 @@ class StaticSolver:
         self.verbose = verbose
         self._log = log
         self.progress = progress    # fenics_plast.progress.Progress over the load factor (total 1), or None
-        cell = mesh.ufl_cell()
-        Ue = ufl.VectorElement("Lagrange", cell, 1)
+        displacement = ("Lagrange", 1, (mesh.geometry.dim,))
         if self.mixed:
-            self.W = fem.FunctionSpace(mesh, ufl.MixedElement([Ue, ufl.FiniteElement("DG", cell, 0)]))
+            self.W = dc.mixed_space(mesh, [displacement, ("DG", 0, None)])
             self.V = self.W.sub(0)
         else:
-            self.W = fem.FunctionSpace(mesh, Ue)
+            self.W = dc.function_space(mesh, *displacement)
             self.V = self.W
         self.w = fem.Function(self.W, name="state")
         self.w_n = fem.Function(self.W, name="state_n")       # last converged
@@ -217,7 +217,7 @@ class StaticSolver:
         self.b = fpetsc.create_vector(self.R_form)
         self.r_int = fpetsc.create_vector(self.Rint_form)
         self.A = fpetsc.create_matrix(self.J_form)
-        self.x = self.w.vector.duplicate()   # SNES solution, distinct from w.vector
+        self.x = dc.petsc_vec(self.w).duplicate()   # SNES solution, distinct from w's own Vec
         self.prefix = f"fp_static_{next(_prefix_counter)}_"
         opts = PETSc.Options()
         o = self.options
@@ -319,7 +319,7 @@ class StaticSolver:
     def _set_state(self, x):
         # SNES trial vectors (line search: x - s dx) carry stale ghost values; apply_lifting reads them
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        x.copy(self.w.vector)
+        x.copy(dc.petsc_vec(self.w))
         self.w.x.scatter_forward()
 
     def _residual(self, snes, x, b):
@@ -334,7 +334,7 @@ class StaticSolver:
         with b.localForm() as bl:
             bl.set(0.0)
         fpetsc.assemble_vector(b, self.R_form)
-        fpetsc.apply_lifting(b, [self.J_form], bcs=[self.bcs], x0=[x], scale=-1.0)
+        dc.apply_lifting(b, [self.J_form], bcs=[self.bcs], x0=[x], alpha=-1.0)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         fpetsc.set_bc(b, self.bcs, x, -1.0)
         self._bad_update = bad      # of the latest evaluation (the state SNES ends on)
@@ -372,7 +372,7 @@ class StaticSolver:
         if lam_prev_step and lam_prev_step > 0:
             s = (lam - lam_n) / lam_prev_step
             self.w.x.array[:] += s * (self.w_n.x.array - self.w_nm1.x.array)
-        self.w.vector.copy(self.x)
+        dc.petsc_vec(self.w).copy(self.x)
         fpetsc.set_bc(self.x, self.bcs)
         self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         self.norms = []
@@ -669,7 +669,7 @@ class StaticSolver:
         if not hasattr(self, "_J_expr"):
             self._J_expr = fem.Expression(ufl.det(self.kin.Fbar(self.u, self.theta)), self.qmap.points)
             self._J_buf = np.zeros((self.qmap.n_owned, self.qmap.nq))
-        self._J_expr.eval(self.qmap.cells, self._J_buf)
+        dc.eval_expression(self._J_expr, self.mesh, self.qmap.cells, self._J_buf)
         return self._J_buf.reshape(-1)
 
     @property

@@ -21,13 +21,14 @@ FIGURE = ROOT / "docs" / "figures" / "taylor_3d.png"
 def outer_faces(mesh, positions_of_vertices):
     """The exterior facets' vertex positions (n, 4, 3) [mm], their cells (n,) and reference centroids (n, 3)."""
     from dolfinx import mesh as dmesh
-    from dolfinx.cpp.mesh import entities_to_geometry
+
+    from fenics_plast import dolfinx_compat as dc
     tdim = mesh.topology.dim
     mesh.topology.create_connectivity(tdim - 1, tdim)
     facets = dmesh.exterior_facet_indices(mesh.topology)
     f2c = mesh.topology.connectivity(tdim - 1, tdim)
     cells = np.array([f2c.links(f)[0] for f in facets])
-    nodes = entities_to_geometry(mesh._mesh, tdim - 1, facets, False)      # (n, 4), tensor-product order
+    nodes = dc.entity_nodes(mesh, tdim - 1, facets)                         # (n, 4), tensor-product order
     nodes = nodes[:, [0, 1, 3, 2]]                                          # cyclic, for drawing
     return positions_of_vertices[nodes], cells, mesh.geometry.x[nodes].mean(axis=1)
 
