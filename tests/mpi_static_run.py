@@ -32,7 +32,10 @@ def main(path, case):
     X = u.function_space.tabulate_dof_coordinates()
     n_owned = u.function_space.dofmap.index_map.size_local
     vals = u.x.array.reshape(-1, 2)
-    local = {f"{X[i, 0]:.6f},{X[i, 1]:.6f}": vals[i].tolist() for i in range(n_owned)}
+    # node keys: coordinates to 1e-6 mm; "+ 0.0" turns a -0.0 into 0.0 (the partitions of dolfinx 0.9
+    # give a node on x = 0 the coordinate -0.0 on one rank count and 0.0 on the other)
+    key = lambda v: f"{round(float(v), 6) + 0.0:.6f}"    # noqa: E731
+    local = {f"{key(X[i, 0])},{key(X[i, 1])}": vals[i].tolist() for i in range(n_owned)}
     gathered = comm.gather(local, root=0)
     if comm.rank == 0:
         nodes = {}

@@ -16,6 +16,7 @@ with rigid-body modes; q1p0 condenses the dilatation exactly first: :mod:`fenics
 from __future__ import annotations
 
 import itertools
+import math
 import weakref
 import time
 
@@ -45,6 +46,7 @@ def _weak(method):
     return call
 MUMPS_WORKSPACE_ERRORS = (-8, -9, -11, -12, -14)   # INFOG(1): a MUMPS work array too small
 MUMPS_MAX_ICNTL14 = 5000    # largest ICNTL(14) [% extra workspace] tried before giving up (start: 100)
+SNES_DIVERGENCE_TOLERANCE = 1e4   # |R| / |R_0| above which Newton has diverged (PETSc's default divtol)
 ROUNDOFF_FACTOR = 10.0      # safety factor of the residual round-off floor (see StaticSolver._jacobian)
 
 
@@ -249,6 +251,7 @@ class StaticSolver:
         snes.setFunction(_weak(self._residual), self.b)
         snes.setJacobian(_weak(self._jacobian), self.A)
         snes.setMonitor(_weak(self._monitor))
+        snes.setConvergenceTest(_weak(self._converged))
         snes.setFromOptions()
         snes.getKSP().setFromOptions()
         if gamg:
@@ -309,12 +312,40 @@ class StaticSolver:
         self.norms.append(float(norm))
         if its > 0 and self._condensed is None and self.options["linear_solver"] == "gamg":
             self._ksp_iterations.append(snes.getKSP().getIterationNumber())
-        n = self.norms
-        if its > 0 and n[-1] <= self.roundoff_floor and n[-1] > 0.1 * n[-2]:
-            # stalled at the round-off floor: converged (SNES tests convergence right after this)
-            snes.setTolerances(atol=max(snes.getTolerances()[1], self.roundoff_floor))
         if self.progress is not None:       # live Newton count within the increment (throttled)
             self.progress.update(self.lam_converged, newton=its)
+
+    def _converged(self, snes, its, norms):
+        """SNES convergence test: PETSc's default one (SNESConvergedDefault: atol, rtol relative to the
+        first residual, stol, divergence, function count), and a stall at the round-off floor
+        (|R| <= roundoff_floor and less than a tenfold decrease), which counts as converged. It is a
+        test and not the monitor's doing because PETSc 3.18 calls the monitor before the test of an
+        iteration and PETSc 3.22 after it."""
+        xnorm, ynorm, fnorm = norms
+        R = PETSc.SNES.ConvergedReason
+        rtol, atol, stol, _ = snes.getTolerances()
+        previous = self._fnorm_previous
+        self._fnorm_previous = fnorm
+        if its == 0:
+            self._fnorm_first = fnorm
+        if fnorm != fnorm:
+            return R.DIVERGED_FNORM_NAN
+        if fnorm < atol:
+            return R.CONVERGED_FNORM_ABS
+        if snes.getFunctionEvaluations() >= snes.getMaxFunctionEvaluations() >= 0:
+            return R.DIVERGED_FUNCTION_COUNT
+        if its > 0:
+            if fnorm <= rtol * self._fnorm_first:
+                return R.CONVERGED_FNORM_RELATIVE
+            if ynorm < stol * xnorm:
+                return R.CONVERGED_SNORM_RELATIVE
+            if fnorm > SNES_DIVERGENCE_TOLERANCE * self._fnorm_first:
+                return R.DIVERGED_DTOL
+            if fnorm <= self.roundoff_floor and fnorm > 0.1 * previous:
+                return R.CONVERGED_FNORM_ABS
+        return R.ITERATING
+
+    _fnorm_first = _fnorm_previous = math.inf
 
     def _set_state(self, x):
         # SNES trial vectors (line search: x - s dx) carry stale ghost values; apply_lifting reads them
