@@ -1,5 +1,9 @@
-# fenics-plast on Debian bookworm: the whole stack (FEniCSx, PETSc, MPI, numba) from Debian packages.
-FROM debian:bookworm
+# fenics-plast on Debian: the whole stack (FEniCSx, PETSc, MPI, numba) from Debian packages.
+# Builds on Debian 12 bookworm (FEniCSx 0.5.2, the default) or Debian 13 trixie (FEniCSx 0.9.0):
+#   docker build --build-arg DEBIAN_RELEASE=trixie -t fenics-plast .
+# scripts/fresh_root_check.sh runs these steps on a fresh root of each release.
+ARG DEBIAN_RELEASE=bookworm
+FROM debian:${DEBIAN_RELEASE}
 
 RUN apt-get update \
  && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends \

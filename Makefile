@@ -1,4 +1,4 @@
-# fenics-plast: make demo | test | test-slow | bench | keys | fresh-check
+# fenics-plast: make demo | test | test-slow | bench | keys | fresh-check[-bookworm|-trixie]
 SHELL := /bin/bash
 PY    := .venv/bin/python
 FP    := .venv/bin/fenics-plast
@@ -7,7 +7,7 @@ FP    := .venv/bin/fenics-plast
 export OMPI_ALLOW_RUN_AS_ROOT := 1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
 
-.PHONY: install demo test test-slow bench keys fresh-check clean
+.PHONY: install demo test test-slow bench keys fresh-check fresh-check-bookworm fresh-check-trixie clean
 
 install:
 	bash scripts/install.sh
@@ -36,10 +36,17 @@ bench: install
 keys: install
 	$(PY) -m fenics_plast.keys_doc
 
-# The README's two commands on a new minimal Debian bookworm root (debootstrap + chroot, the Dockerfile's
-# steps); needs root. ~12 min the first time on a machine, ~9 min once the .deb files are cached.
+# The README's two commands on a new minimal Debian root (debootstrap + chroot, the Dockerfile's steps),
+# Debian 12 bookworm and Debian 13 trixie one after the other, or one of them; needs root. Times: see
+# the README ("Set-up and run").
 fresh-check:
 	bash scripts/fresh_root_check.sh
+
+fresh-check-bookworm:
+	bash scripts/fresh_root_check.sh bookworm
+
+fresh-check-trixie:
+	bash scripts/fresh_root_check.sh trixie
 
 clean:
 	rm -rf results
