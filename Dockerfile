@@ -1,8 +1,10 @@
 # fenics-plast on Debian: the whole stack (FEniCSx, PETSc, MPI, numba) from Debian packages.
-# Builds on Debian 12 bookworm (FEniCSx 0.5.2, the default) or Debian 13 trixie (FEniCSx 0.9.0):
-#   docker build --build-arg DEBIAN_RELEASE=trixie -t fenics-plast .
+# Builds on Debian 13 trixie (FEniCSx 0.9.0, the default) or Debian 12 bookworm (FEniCSx 0.5.2):
+#   docker build --build-arg DEBIAN_RELEASE=bookworm -t fenics-plast .
+# trixie is the default for reproducible benchmarks: Debian's stable release, supported longest, and
+# as fast or faster on our benchmarks with the same results (docs/PLATFORMS.md).
 # scripts/fresh_root_check.sh runs these steps on a fresh root of each release.
-ARG DEBIAN_RELEASE=bookworm
+ARG DEBIAN_RELEASE=trixie
 FROM debian:${DEBIAN_RELEASE}
 
 RUN apt-get update \

@@ -19,7 +19,7 @@ SEED = {0.0: (57, 136, "40 mm"), 0.15: (130, 214, "40 mm"), 0.3: (260, 365, "58 
 
 
 def run(mu, out, travel=None):
-    cmd = [str(ROOT / ".venv/bin/fenics-plast"), "run", str(ROOT / "demos/punch_stretching.toml"),
+    cmd = [sys.executable, "-m", "fenics_plast.cli", "run", str(ROOT / "demos/punch_stretching.toml"),
            "--out", str(out), "--set", f"contact.punch.friction={mu}", "--set", f"contact.die.friction={mu}",
            "--set", "output.xdmf=false", "--set", "output.plots=false"]
     if travel:                          # the punch rises linearly to `travel` mm over the load factor 0 -> 1

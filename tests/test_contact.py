@@ -20,6 +20,8 @@ from dolfinx import mesh as dm
 import dolfinx.fem.petsc as fpetsc
 from mpi4py import MPI
 
+from scene_runs import FP
+
 from fenics_plast.contact import FlatWall, PenaltyContact
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Material
@@ -312,7 +314,7 @@ def test_serial_vs_mpi(tmp_path):
 
 def _run_scene(tmp, mu, law="quasi-coulomb", extra=()):
     out = Path(tmp) / f"mu{mu}_{law}"
-    cmd = [str(ROOT / ".venv/bin/fenics-plast"), "run", str(ROOT / "demos/punch_stretching.toml"), "--out", str(out)]
+    cmd = [*FP, "run", str(ROOT / "demos/punch_stretching.toml"), "--out", str(out)]
     for pair in ("punch", "die"):
         cmd += ["--set", f"contact.{pair}.friction={mu}", "--set", f"contact.{pair}.law={law}"]
     p = subprocess.run([*cmd, *extra], cwd=ROOT, capture_output=True, text=True, timeout=1200)
