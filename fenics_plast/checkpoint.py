@@ -15,13 +15,21 @@ Every file is written to a temporary name, fsynced and renamed (``os.replace``),
 leaves either a complete file or a temporary one, never a truncated file under its final name; and a
 checkpoint without a manifest does not exist as far as :meth:`Checkpointer.load` is concerned. The
 two newest complete checkpoints are kept (the older ones are deleted after a new manifest is in
-place); a run that ends successfully removes the directory (:meth:`Checkpointer.clear`, called by
-the CLI after summary.json).
+place); a run that ends successfully removes its checkpoint files (:meth:`Checkpointer.clear`, called
+by the CLI after summary.json), and a fresh run removes those of an earlier run. Only files named as
+a checkpointer names them (:func:`own_files`) are ever deleted, and the directory only when nothing
+else is left in it.
+
+Fingerprint: the manifest carries the problem's :func:`fingerprint` (the run's
+``RunOutput.fingerprint``, set by the CLI): sha256 of the mesh (:func:`mesh_fingerprint`, the same on
+any number of ranks) and of every file the mesh is read from (the mesh file, its Includes and
+Merges). A resumed run whose mesh or mesh files differ is refused (:func:`check_fingerprint`).
 
 Resuming reads the newest complete checkpoint whose rank files verify (size and sha256; an older one
-otherwise) and refuses, with :class:`CheckpointError`, when the number of ranks, the scene settings
-(mesh, material, loading, solver, ...; not ``output.xdmf|every|plots|checkpoint_every`` nor
-``scene.description``) or the format differ. history.csv is rewritten from the checkpoint's rows,
+otherwise, with a warning on stderr and in summary.json "warnings") and refuses, with
+:class:`CheckpointError`, when the number of ranks, the scene settings (mesh, material, loading,
+solver, ...; not ``output.xdmf|every|plots|checkpoint_every`` nor ``scene.description``) or the
+format differ. history.csv is rewritten from the checkpoint's rows,
 so rows a killed run wrote after its last checkpoint are dropped, not duplicated.
 
 State layout: :meth:`Checkpointer.save` takes named groups (``solver``, ``loop``, ``runner``, ...),
@@ -50,7 +58,7 @@ import io
 import json
 import os
 import re
-import shutil
+import sys
 import time
 from pathlib import Path
 from typing import Any, Mapping
@@ -59,16 +67,19 @@ import numpy as np
 
 __all__ = ["FORMAT", "CheckpointError", "Checkpointer", "Keyed", "KeyedTable", "scene_settings", "check_resume",
            "write_atomic", "dof_keys", "qp_keys", "cell_keys", "owned_keyed", "raise_on_any",
-           "DIRNAME"]
+           "DIRNAME", "mesh_fingerprint", "file_digest", "fingerprint", "check_fingerprint", "own_files",
+           "remove_own"]
 
 #: version of the checkpoint layout; bump it when a solver's state_dict changes meaning
-FORMAT = 2
+FORMAT = 3
 DIRNAME = "checkpoint"
 #: output keys that do not change the numbers (a resumed run may change them)
 FREE_KEYS = {("scene", "description"), ("output", "xdmf"), ("output", "every"), ("output", "plots"),
              ("output", "checkpoint_every")}
 KEEP = 2            # complete checkpoints kept on disk
 _NAME = re.compile(r"^ckpt_(\d+)\.json$")
+#: every file a checkpointer writes: manifests, rank files, and their temporary names (write_atomic)
+_OWN = re.compile(r"^(ckpt_\d+\.(json|rank\d+\.npz)|\.ckpt_\d+\.(json|rank\d+\.npz)\.tmp\d+)$")
 KILL_ENV = "FENICS_PLAST_KILL_AFTER_CHECKPOINTS"
 KILL_POINT_ENV = "FENICS_PLAST_KILL_POINT"
 
@@ -160,6 +171,98 @@ def dof_keys(space) -> np.ndarray:
     if (base < 0).any() or bs > SLOTS:
         raise ValueError("dof_keys: could not key every dof")
     return (base[:, None] * SLOTS + np.arange(bs)[None, :]).reshape(-1)
+
+
+def mesh_fingerprint(mesh) -> str:
+    """sha256 (hex) of a dolfinx mesh that does not depend on the partition (collective; every rank
+    gets it): the node coordinates (float64) ordered by input node index, then each cell's original
+    index and its nodes' input indices, in original cell order. Gathered on rank 0."""
+    from fenics_plast import dolfinx_compat as dc
+    comm = mesh.comm
+    n_own = mesh.topology.index_map(mesh.topology.dim).size_local
+    nodes = np.asarray(mesh.geometry.input_global_indices, dtype=np.int64)
+    x = np.asarray(mesh.geometry.x, dtype=np.float64)
+    conn = nodes[np.asarray(dc.geometry_dofs(mesh))[:n_own]]
+    parts = comm.gather((nodes, x, cell_keys(mesh)[:n_own], conn), root=0)
+    digest = None
+    if comm.rank == 0:
+        keys = np.concatenate([p[0] for p in parts])
+        keys, first = np.unique(keys, return_index=True)
+        xs = np.concatenate([p[1] for p in parts])[first] + 0.0      # + 0.0: a -0.0 hashes as 0.0
+        cells = np.concatenate([p[2] for p in parts])
+        order = np.argsort(cells, kind="stable")
+        cc = np.concatenate([p[3] for p in parts])[order]
+        h = hashlib.sha256()
+        for a in (keys, xs, cells[order], cc):
+            h.update(str(a.shape).encode())
+            h.update(np.ascontiguousarray(a).astype(a.dtype.newbyteorder("<")).tobytes())
+        digest = h.hexdigest()
+    return comm.bcast(digest, root=0)
+
+
+def file_digest(path) -> str:
+    """sha256 (hex) of a file's bytes."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def fingerprint(mesh, files) -> dict:
+    """The problem's fingerprint for checkpoints (collective): ``{"mesh": mesh_fingerprint(mesh),
+    "files": {path: sha256}}`` of the files the mesh is read from (``files``: paths, read on rank 0)."""
+    comm = mesh.comm
+    digests = None
+    if comm.rank == 0:
+        digests = {}
+        for f in files:
+            try:
+                digests[str(f)] = file_digest(f)
+            except OSError as e:
+                digests[str(f)] = f"unreadable: {e.strerror or e}"
+    return {"mesh": mesh_fingerprint(mesh), "files": comm.bcast(digests, root=0)}
+
+
+def check_fingerprint(out_dir, manifest: Mapping, now: Mapping | None) -> None:
+    """Raise :class:`CheckpointError` saying what changed when the problem's fingerprint ``now``
+    (:func:`fingerprint`) differs from the checkpoint manifest's (a mesh file edited, added or no
+    longer read; the mesh itself). Nothing is checked when either is missing."""
+    then = manifest.get("fingerprint")
+    if not now or not then:
+        return
+    what = []
+    a, b = dict(now.get("files") or {}), dict(then.get("files") or {})
+    for f in sorted(set(a) | set(b)):
+        if f not in a:
+            what.append(f"the mesh was read from {f} then, not now")
+        elif f not in b:
+            what.append(f"the mesh is read from {f} now, not then")
+        elif a[f] != b[f]:
+            what.append(f"the mesh file {f} was edited (sha256 {b[f][:12]}... then, {a[f][:12]}... now)")
+    if now.get("mesh") != then.get("mesh"):
+        what.append("the mesh differs (node coordinates or cells)")
+    if what:
+        raise CheckpointError(f"{out_dir}: the problem changed since the checkpoint was written: {'; '.join(what)}. "
+                              f"A resumed run needs the same mesh: restore the file, or rerun from the start "
+                              f"(without --resume)")
+
+
+def own_files(ckdir: Path) -> list[Path]:
+    """The files in ``ckdir`` that a checkpointer wrote (manifests, rank files, temporary files)."""
+    if not ckdir.is_dir():
+        return []
+    return [p for p in ckdir.iterdir() if _OWN.match(p.name) and p.is_file()]
+
+
+def remove_own(ckdir: Path) -> None:
+    """Delete the checkpointer's files in ``ckdir``, then the folder if nothing else is in it."""
+    for p in own_files(ckdir):
+        p.unlink(missing_ok=True)
+    try:
+        ckdir.rmdir()
+    except OSError:
+        pass
 
 
 def owned_keyed(fun, keys=None) -> Keyed:
@@ -361,9 +464,10 @@ class Checkpointer:
         kill = os.environ.get(KILL_ENV)
         self._kill_after = int(kill) if kill else None
         self._kill_point = os.environ.get(KILL_POINT_ENV, "after")
+        self.warnings: list[str] = []   # e.g. the newest checkpoint was corrupt (summary.json "warnings")
         if self.rank == 0:
-            if not self.resuming and self.dir.exists():
-                shutil.rmtree(self.dir)         # a fresh run: stale checkpoints of an earlier run go
+            if not self.resuming:
+                remove_own(self.dir)            # a fresh run: stale checkpoints of an earlier run go
             if self.every > 0 or self.resuming:
                 self.dir.mkdir(parents=True, exist_ok=True)
         self._barrier()
@@ -416,6 +520,7 @@ class Checkpointer:
         if self.rank == 0:
             manifest = dict(format=FORMAT, analysis=self.analysis, counter=counter, ranks=self.size, files=files,
                             written_unix=time.time(), settings=self.settings, state=meta,
+                            fingerprint=getattr(self.output, "fingerprint", None),
                             history_rows=self.output.history_rows if self.output is not None else None)
             write_atomic(path, json.dumps(manifest, default=_json_default).encode("utf-8"))
             self._prune(counter)
@@ -444,22 +549,23 @@ class Checkpointer:
         """Read the newest complete checkpoint (collective). Returns ``{"counter": n, group: {...}}``
         with the arrays of this rank and the JSON values; restores the output's history.csv.
         Raises :class:`CheckpointError` (on every rank) when none can be resumed."""
-        err, manifests = None, []
+        err, manifests, reasons = None, [], []
         if self.rank == 0:
             found = _manifests(self.dir)
-            for _, p in found:
+            for c, p in found:
                 m = _read_manifest(p)
                 if m is not None:
                     manifests.append(m)
+                elif not manifests:         # newer than every readable one: a corrupt newest checkpoint
+                    reasons.append(f"checkpoint {c}: its manifest {p.name} cannot be read")
             if not manifests:
                 err = (f"{self.dir.parent}: no complete checkpoint in {self.dir} (the run was killed before "
                        f"its first checkpoint, or output.checkpoint_every = 0): rerun from the start")
             else:
                 err = _compatibility(manifests[0], self.size, self.settings, self.dir.parent)
-        err, manifests = self._bcast((err, manifests))
+        err, manifests, reasons = self._bcast((err, manifests, reasons))
         if err:
             raise CheckpointError(err)
-        reasons = []
         for m in manifests:
             # every rank reads every rank file: the partition of this run may differ from the saved one
             why, parts = None, []
@@ -488,6 +594,12 @@ class Checkpointer:
                 state.setdefault(g, {})[k] = KeyedTable(
                     key, np.concatenate([p[key] for p in parts]), np.concatenate([p[key + "@keys"] for p in parts]))
             self.resumed_from = int(m["counter"])
+            if reasons:
+                msg = (f"warning: {self.dir}: the newest checkpoint could not be used ({'; '.join(reasons)}): "
+                       f"resumed from the older checkpoint {m['counter']}")
+                self.warnings.append(msg[len("warning: "):])
+                if self.rank == 0:              # stderr: seen whatever the progress display
+                    print(msg, file=sys.stderr, flush=True)
             if self.output is not None and m.get("history_rows") is not None:
                 self.output.restore_history(m["history_rows"])
             return state
@@ -495,10 +607,11 @@ class Checkpointer:
 
     # -- end of run --------------------------------------------------------------------------
     def clear(self):
-        """Remove the checkpoint directory (collective; after a successful run)."""
+        """Remove this run's checkpoint files, and the directory when nothing else is in it
+        (collective; after a successful run)."""
         self._barrier()
-        if self.rank == 0 and self.dir.exists():
-            shutil.rmtree(self.dir, ignore_errors=True)
+        if self.rank == 0:
+            remove_own(self.dir)
         self._barrier()
 
     def summary(self) -> dict[str, Any]:

@@ -66,9 +66,7 @@ def cmd_run(args) -> int:
 
     from mpi4py import MPI
     comm = MPI.COMM_WORLD
-    from .checkpoint import CheckpointError, check_resume
-    from .errors import RunError
-    from .output import RunOutput
+    from .checkpoint import DIRNAME, CheckpointError, check_fingerprint, check_resume, remove_own
 
     if resume:
         try:
@@ -77,14 +75,101 @@ def cmd_run(args) -> int:
             _error(str(e))
             return EXIT_USAGE
         _say(f"fenics-plast: resuming {out_dir} from checkpoint {manifest['counter']}")
+    why = _out_dir_problem(out_dir, problem.name, getattr(args, "overwrite", False), bool(resume), comm)
+    if why:
+        _error(why)
+        return EXIT_USAGE
 
-    from .runner import read_mesh, run
+    from .runner import prepare, read_mesh
     try:                               # the mesh's groups are checked before anything is written
-        mesh_data = read_mesh(problem, comm)
+        mesh_data = read_mesh(problem, comm, trust_mesh_script=getattr(args, "trust_mesh_script", False))
     except SceneError as e:
         _error(str(e))
         return EXIT_USAGE
+    fingerprint = None
+    if mesh_data is not None and (resume or problem.output.checkpoint_every > 0):   # checkpoints carry it
+        fingerprint = _fingerprint(problem, mesh_data[0])
+    if resume:
+        try:
+            check_fingerprint(out_dir, manifest, fingerprint)
+        except CheckpointError as e:
+            _error(str(e))
+            return EXIT_USAGE
+    try:                               # the set-up too: what it refuses is the scene's (exit 2, nothing written)
+        prepared = prepare(problem, comm, mesh_data)
+    except SceneError as e:
+        _error(str(e))
+        return EXIT_USAGE
+    except Exception as e:  # noqa: BLE001 - not the scene's fault: the run reports it (exit 1, summary.json)
+        prepared = e
+    lock, why = _take_out_dir(out_dir, problem.name, comm)
+    if why:
+        _error(why)
+        return EXIT_USAGE
+    if not resume and comm.rank == 0:   # a fresh run: an earlier run's checkpoint files go (only those)
+        if (out_dir / "summary.json").is_file() or (out_dir / "history.csv").is_file():
+            _say(f"fenics-plast: {out_dir} holds the results of an earlier run: they are replaced")
+        remove_own(out_dir / DIRNAME)
+    try:
+        return _run_in(problem, out_dir, comm, resume, prepared, fingerprint)
+    finally:
+        if lock is not None:
+            lock.release()          # also after a failure or Ctrl-C
+
+
+def _out_dir_problem(out_dir, scene, overwrite, resume, comm) -> str | None:
+    """Why the run may not write into ``out_dir`` (rank 0 checks; every rank gets the answer)."""
+    from .output import OutputDirError, check_out_dir
+    why = None
+    if comm.rank == 0:
+        try:
+            check_out_dir(out_dir, scene, overwrite=overwrite, resume=resume)
+        except OutputDirError as e:
+            why = str(e)
+    return comm.bcast(why, root=0) if comm.size > 1 else why
+
+
+def _take_out_dir(out_dir, scene, comm):
+    """Rank 0: create the output folder (and missing parents), take its lock, mark it as a results
+    folder of ``scene``. Returns ``(lock or None, why it failed or None)``; a failure removes the
+    folders it created."""
+    from .output import OutputDirError, RunLock, make_out_dir, mark_results_folder, remove_created
+    lock, why = None, None
+    if comm.rank == 0:
+        created = []
+        try:
+            created = make_out_dir(out_dir)
+            lock = RunLock.acquire(out_dir)
+            if lock.warning:
+                print(lock.warning, file=sys.stderr, flush=True)
+            mark_results_folder(out_dir, scene)
+        except (OutputDirError, OSError) as e:
+            if lock is not None:
+                lock.release()
+                lock = None
+            remove_created(created)
+            why = str(e) if isinstance(e, OutputDirError) else f"--out {out_dir}: {e.strerror or e}"
+    why = comm.bcast(why, root=0) if comm.size > 1 else why
+    return lock, why
+
+
+def _fingerprint(problem, mesh) -> dict:
+    """The problem's fingerprint for checkpoints: the mesh and the files it is read from (collective)."""
+    from .checkpoint import fingerprint
+    from .geo_screen import input_files
+    files = input_files(problem.mesh_file, problem.path.parent) if mesh.comm.rank == 0 else []
+    return fingerprint(mesh, files)
+
+
+def _run_in(problem, out_dir, comm, resume, mesh_data, fingerprint) -> int:
+    """The run in its (locked) output folder: results, summary.json, exit status."""
+    from .checkpoint import CheckpointError
+    from .errors import RunError
+    from .expressions import ExpressionError
+    from .output import RunOutput
+    from .runner import run
     output = RunOutput(out_dir, comm, resume=bool(resume))
+    output.fingerprint = fingerprint
     _say(f"fenics-plast: scene {problem.name!r} ({problem.analysis.type}; physics: "
          f"{', '.join(problem.active_physics) or 'elastic'}) on {comm.size} rank(s) -> {out_dir}")
 
@@ -123,6 +208,11 @@ def cmd_run(args) -> int:
         status = EXIT_RUN_FAILED
         summary.update(converged=False, error=str(e))
         _error(str(e))
+    except ExpressionError as e:       # a load or output not finite during the run (checked where it can be before)
+        status = EXIT_RUN_FAILED
+        msg = f"{problem.path}: {e}: the run stopped there"
+        summary.update(converged=False, error=msg)
+        _error(msg)
     except KeyboardInterrupt:
         status = 130
         summary.update(converged=False, error="interrupted")
@@ -137,6 +227,8 @@ def cmd_run(args) -> int:
     ckpt = output.checkpointer
     if ckpt is not None:
         summary.update(ckpt.summary())
+        if ckpt.warnings:                   # e.g. resumed from an older checkpoint: the newest was corrupt
+            summary["warnings"] = list(summary.get("warnings") or []) + ckpt.warnings
     summary["scene_settings"] = problem.to_dict()
     path = output.finish(summary)
     if ckpt is not None and status == EXIT_OK:
@@ -318,6 +410,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a scene key by dotted path, e.g. --set contact.punch.friction=0.15 "
                         "(repeatable)")
+    r.add_argument("--overwrite", action="store_true",
+                   help="let --out name a results folder of another scene (its results are replaced); a "
+                        "non-empty folder that is not a results folder is refused all the same")
+    r.add_argument("--trust-mesh-script", action="store_true",
+                   help="let the scene's Gmsh .geo run any command it contains (programs, file writes, Includes "
+                        "from anywhere): without it, such a script is refused before Gmsh reads it")
     r.add_argument("--resume", metavar="DIR",
                    help="continue the killed run whose output directory is DIR from its newest complete "
                         "checkpoint (same scene file, --set options and number of MPI ranks); output "

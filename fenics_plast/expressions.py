@@ -5,10 +5,14 @@ holds (``__import__('os').system(...)``), and numexpr 2.8.4 had a code-execution
 so neither is used. An expression is parsed with :mod:`ast` and checked against a whitelist, then
 evaluated by walking our own small tree (never compiled), in numpy (float64) or in UFL.
 
-Accepted in an expression (at most 500 characters, nesting depth at most 40):
+Accepted in an expression (at most 500 characters, nesting depth at most 40: each bracket, function
+call, unary sign and operator of higher precedence opens a level; a chain of ``+ -`` or of ``* /`` is one
+level however many terms it has):
 
-* numbers (every literal becomes a float, so ``9**9**9`` is a float power that overflows to inf,
-  which evaluation reports, never a huge-integer computation); ``True``, strings, complex refused;
+* numbers (every literal becomes a float, never a huge-integer computation); ``True``, strings,
+  complex refused. A part without symbols is computed when the expression is read (``2*pi*x`` keeps
+  one number ``6.28...``); one that is not finite (``9**9**9``, ``10**400``, ``log(0)``, ``1/0``,
+  ``1e308*10``) refuses the expression, naming that part;
 * the symbols (default ``x, y, z, t``) and the constants ``pi`` and ``e``;
 * unary ``+ -`` and binary ``+ - * / **``;
 * calls of ``sin cos tan asin acos atan atan2 sinh cosh tanh sqrt exp log abs min max`` with
@@ -46,6 +50,7 @@ FUNCTIONS = {
     "abs": (1, np.abs, abs), "min": (2, np.minimum, ufl.min_value), "max": (2, np.maximum, ufl.max_value),
 }
 _BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Pow: "**"}
+_PRECEDENCE = {ast.Add: 1, ast.Sub: 1, ast.Mult: 2, ast.Div: 2, ast.Pow: 3}
 _APPLY = {"+": operator.add, "-": operator.sub, "*": operator.mul, "/": operator.truediv,
           "**": operator.pow}
 _OP_TEXT = {ast.FloorDiv: "//", ast.Mod: "%", ast.MatMult: "@", ast.LShift: "<<", ast.RShift: ">>",
@@ -88,6 +93,23 @@ class _Builder:
         raise ExpressionError(f"{self.where}: {what}{at} in {_quote(self.text)}{hint}")
 
     def build(self, node, depth=1):
+        tree = self._build(node, depth)
+        if tree[0] not in ("num", "sym") and all(a[0] == "num" for a in _children(tree)):
+            tree = self.fold(tree, node)
+        return tree
+
+    def fold(self, tree, node):
+        """A part without symbols -> ("num", its value); a value that is not finite refuses the
+        expression (an overflow would otherwise reach the solver or the generated C code as inf)."""
+        with np.errstate(all="ignore"):
+            v = float(_walk(tree, {}, 0))
+        if not math.isfinite(v):
+            seg = ast.get_source_segment(self.text, node) or self.text
+            self.fail(f"'{seg}' is not finite (it computes to {v})", node,
+                      " (a part without symbols must compute to a finite number)")
+        return ("num", v)
+
+    def _build(self, node, depth):
         if depth > MAX_DEPTH:
             self.fail(f"expression nests too deeply (more than {MAX_DEPTH} levels)")
         seg = ast.get_source_segment(self.text, node) or type(node).__name__
@@ -114,7 +136,11 @@ class _Builder:
             a = self.build(node.operand, depth + 1)
             return a if isinstance(node.op, ast.UAdd) else ("neg", a)
         if isinstance(node, ast.BinOp) and type(node.op) in _BINOPS:
-            return (_BINOPS[type(node.op)], self.build(node.left, depth + 1), self.build(node.right, depth + 1))
+            # a chain a + b - c + ... (or a * b / c ...) nests to the left in the tree: one level
+            chain = (isinstance(node.left, ast.BinOp) and type(node.left.op) in _BINOPS
+                     and _PRECEDENCE[type(node.left.op)] == _PRECEDENCE[type(node.op)] != 3)
+            return (_BINOPS[type(node.op)], self.build(node.left, depth if chain else depth + 1),
+                    self.build(node.right, depth + 1))
         if isinstance(node, (ast.UnaryOp, ast.BinOp)):
             self.fail(f"operator '{_OP_TEXT.get(type(node.op), type(node.op).__name__)}' is not allowed", node)
         if isinstance(node, ast.Call):
@@ -142,6 +168,17 @@ class _Builder:
         return ("call", name, tuple(self.build(a, depth + 1) for a in node.args))
 
 
+def _children(tree):
+    """The operand subtrees of a checked tree node (none for a number or a symbol)."""
+    if tree[0] in ("num", "sym"):
+        return ()
+    if tree[0] == "neg":
+        return (tree[1],)
+    if tree[0] == "call":
+        return tree[2]
+    return tree[1:]
+
+
 def _walk(node, env, backend):
     """Evaluate a checked tree; backend 0 is numpy (float64), 1 is UFL."""
     tag = node[0]
@@ -154,6 +191,63 @@ def _walk(node, env, backend):
     if tag == "call":
         return FUNCTIONS[node[1]][1 + backend](*(_walk(a, env, backend) for a in node[2]))
     return _APPLY[tag](_walk(node[1], env, backend), _walk(node[2], env, backend))
+
+
+def _unparse(tree) -> str:
+    """A checked tree as text (fully bracketed), for messages."""
+    tag = tree[0]
+    if tag == "num":
+        return f"{tree[1]:g}"
+    if tag == "sym":
+        return tree[1]
+    if tag == "neg":
+        return f"-{_unparse(tree[1])}"
+    if tag == "call":
+        return f"{tree[1]}({', '.join(_unparse(a) for a in tree[2])})"
+    return f"({_unparse(tree[1])} {tag} {_unparse(tree[2])})"
+
+
+def _denominators(tree):
+    """Every divisor subtree (the right operand of each /) of a checked tree."""
+    if tree[0] == "/":
+        yield tree[2]
+    for child in _children(tree):
+        yield from _denominators(child)
+
+
+#: how many times from 0 to the end of an analysis a value of t is checked at before the run
+CHECK_TIMES = 65
+
+
+def check_times(t_end: float, n: int = CHECK_TIMES) -> np.ndarray:
+    """``n`` equally spaced times from 0 to ``t_end`` (both included), where values of t are checked
+    before a run (static: pseudo-time; explicit: µs as written in the scene)."""
+    return np.linspace(0.0, float(t_end), n)
+
+
+def check_output_expression(expression: "Expression", t_end: float, samples: int = 64) -> None:
+    """Refuse before the run an output expression (of t and other outputs' values) that divides by a
+    denominator that is zero for any values, or that is not finite in the first history row (t = 0)
+    whatever the outputs' values: :class:`ExpressionError` naming the key.
+
+    The outputs' values are unknown before the run: ``samples`` sets of them are drawn (a fixed seed;
+    either sign, magnitudes 1e-3 to 1e3), half at t = 0 and half at times in [0, ``t_end``]. An
+    expression finite for some of them passes; a non-finite value during the run fails the run then."""
+    rng = np.random.default_rng(12345)
+    half = samples // 2
+    env = {s: rng.choice([-1.0, 1.0], samples) * 10.0 ** rng.uniform(-3.0, 3.0, samples)
+           for s in expression._order if s != "t"}
+    env["t"] = np.concatenate([np.zeros(half), rng.uniform(0.0, max(float(t_end), 0.0), samples - half)])
+    names = ", ".join(s for s in expression._order) or "its symbols"
+    with np.errstate(all="ignore"):
+        for d in _denominators(expression.tree):
+            if np.all(np.broadcast_to(_walk(d, env, 0), (samples,)) == 0.0):
+                raise ExpressionError(f"{expression.where}: {_quote(expression.text)} divides by "
+                                      f"{_unparse(d)}, which is 0 whatever the values of {names}")
+        r = np.broadcast_to(np.asarray(_walk(expression.tree, env, 0), dtype=float), (samples,))
+    if not np.isfinite(r[:half]).any():
+        raise ExpressionError(f"{expression.where}: {_quote(expression.text)} is not finite at t = 0 (the "
+                              f"first history row) for any of {half} sampled values of {names}")
 
 
 def parse_expression(text, where, symbols=("x", "y", "z", "t")) -> "Expression":
@@ -320,6 +414,21 @@ class Value:
         shape = np.broadcast_shapes(np.shape(r), *(np.shape(given[s]) for s in SPACE if given[s] is not None))
         r = np.array(np.broadcast_to(r, shape), dtype=float)
         return float(r) if r.ndim == 0 else r
+
+    def check_finite(self, times, x=None, y=None, z=None):
+        """ExpressionError naming the key and the first point where the value is not finite, over the
+        ``times`` (1-D array) and, for a value of x, y, z, the points given (1-D arrays of coordinates).
+        Numbers and tables of numbers are finite: nothing to do."""
+        if self.expression is None:
+            return
+        times = np.asarray(times, dtype=float)
+        if not self.depends_on_time:
+            times = times[:1]
+        if not self.depends_on_space:
+            self.expression.evaluate(t=times)
+            return
+        for t in times:
+            self.expression.evaluate(x=x, y=y, z=z, t=t)
 
     def to_ufl(self, x=None, y=None, z=None, t=None, **others):
         given = dict(x=x, y=y, z=z, t=t, **others)

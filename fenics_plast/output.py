@@ -3,6 +3,13 @@
 Knows nothing of physics. Rank 0 writes every file except fields.xdmf (written collectively by
 dolfinx through :attr:`RunOutput.xdmf_path`). ``comm`` may be an mpi4py communicator or None
 (serial, no MPI import).
+
+The output folder (used by the CLI before a run starts, rank 0): :func:`check_out_dir` refuses a
+folder a run must not write into (a file, not writable, a non-empty folder that is not a results
+folder, another scene's results without ``--overwrite``); :func:`make_out_dir` creates it, the
+marker :data:`MARKER` says it is a results folder and of which scene, and :class:`RunLock` keeps a
+second run out while one runs. :func:`file_name_problem` says why a scene, plot or output name
+cannot become a file name.
 """
 from __future__ import annotations
 
@@ -15,7 +22,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
-__all__ = ["RunOutput", "to_jsonable"]
+__all__ = ["RunOutput", "to_jsonable", "file_name_problem", "NAME_MAX", "OutputDirError", "MARKER", "LOCK",
+           "results_folder_scene", "check_out_dir", "make_out_dir", "remove_created", "mark_results_folder",
+           "RunLock"]
 
 
 def to_jsonable(obj: Any) -> Any:
@@ -66,6 +75,7 @@ class RunOutput:
         self.is_root = self.rank == 0
         self.resume = bool(resume)          # continues a killed run from its checkpoint (checkpoint.py)
         self.checkpointer = None            # set by fenics_plast.checkpoint.Checkpointer
+        self.fingerprint = None             # the problem's fingerprint (checkpoint.fingerprint): checkpoints carry it
         if self.is_root:
             self.out_dir.mkdir(parents=True, exist_ok=True)
             # a summary.json of an earlier run must not make this one look complete if it is killed
@@ -215,3 +225,220 @@ class RunOutput:
 
     def __repr__(self) -> str:
         return f"RunOutput({str(self.out_dir)!r}, rank={self.rank}/{self.size})"
+
+
+# ----------------------------------------------------------------------------------------------
+# names that become file names, and the output folder of a run
+
+#: longest scene, plot or output name (it becomes a file or folder name with a suffix)
+NAME_MAX = 100
+_UNSAFE = set('/\\:*?"<>|')
+
+
+def file_name_problem(name: Any) -> str | None:
+    """Why ``name`` cannot be used as a file name in a results folder (None: it can): empty, longer
+    than :data:`NAME_MAX` characters, a leading dot (``.``, ``..``, hidden files), leading or trailing
+    blanks, a path separator, NUL or another control character, or one of ``: * ? " < > |``."""
+    if not isinstance(name, str) or not name.strip():
+        return "must be a non-empty name"
+    if len(name) > NAME_MAX:
+        return f"is {len(name)} characters long: at most {NAME_MAX}"
+    bad = sorted({c for c in name if c in _UNSAFE or ord(c) < 32 or ord(c) == 127})
+    if bad:
+        shown = " ".join(repr(c)[1:-1] for c in bad)
+        return f"must not contain {shown} (no path separators or characters unsafe in a file name)"
+    if name.startswith("."):
+        return "must not start with a dot"
+    if name != name.strip():
+        return "must not start or end with a blank"
+    return None
+
+
+class OutputDirError(ValueError):
+    """The output folder cannot be used (exit 2, nothing written)."""
+
+
+#: marker of a results folder: JSON {"scene": name or null}, written when a run takes the folder
+MARKER = ".fenics-plast"
+#: a run's lock file in its folder: JSON {"pid", "host"}, created atomically, removed at the end
+LOCK = ".fenics-plast.lock"
+
+
+def results_folder_scene(path: str | os.PathLike) -> tuple[bool, str | None]:
+    """``(is a fenics-plast results folder, its scene name or None)``: the folder has the marker
+    :data:`MARKER` (a null scene: prepared for any scene, e.g. by ``study``), or was written by an older
+    fenics-plast (summary.json with ``scene`` and ``scene_settings``, or a checkpoint manifest)."""
+    path = Path(path)
+    try:
+        m = json.loads((path / MARKER).read_text(encoding="utf-8"))
+        if isinstance(m, dict) and (m.get("scene") is None or isinstance(m.get("scene"), str)):
+            return True, m.get("scene")
+    except (OSError, ValueError):
+        pass
+    try:
+        s = json.loads((path / "summary.json").read_text(encoding="utf-8"))
+        if isinstance(s, dict) and isinstance(s.get("scene"), str) and isinstance(s.get("scene_settings"), dict):
+            return True, s["scene"]
+    except (OSError, ValueError):
+        pass
+    for manifest in sorted((path / "checkpoint").glob("ckpt_*.json")) if (path / "checkpoint").is_dir() else ():
+        try:
+            name = json.loads(manifest.read_text(encoding="utf-8"))["settings"]["scene"]["name"]
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+        if isinstance(name, str):
+            return True, name
+    return False, None
+
+
+def check_out_dir(out_dir: str | os.PathLike, scene: str, overwrite: bool = False, resume: bool = False) -> None:
+    """Raise :class:`OutputDirError` unless a run of ``scene`` may write into ``out_dir`` (no side
+    effect): a new folder whose nearest existing parent is a writable folder; an existing writable
+    folder that is empty or a results folder of the same scene (of another scene: with
+    ``overwrite``). A non-empty folder that is not a results folder is refused, ``overwrite`` or not.
+    ``resume``: the folder of the killed run (checked by :func:`fenics_plast.checkpoint.check_resume`)."""
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise OutputDirError(f"--out {out}: is a file, not a folder: choose a folder for the results")
+    if not out.exists():
+        parent = out.absolute().parent
+        while not parent.exists() and parent != parent.parent:
+            parent = parent.parent
+        if not parent.is_dir():
+            raise OutputDirError(f"--out {out}: cannot create the folder: {parent} is a file, not a folder")
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise OutputDirError(f"--out {out}: cannot create the folder: {parent} is not writable")
+        return
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise OutputDirError(f"--out {out}: the folder is not writable")
+    if resume:
+        return
+    try:
+        entries = [e for e in os.listdir(out) if e != LOCK]
+    except OSError as e:
+        raise OutputDirError(f"--out {out}: cannot read the folder: {e.strerror or e}") from None
+    if not entries:
+        return
+    is_results, name = results_folder_scene(out)
+    if not is_results:
+        raise OutputDirError(f"--out {out}: the folder is not empty and is not a fenics-plast results folder "
+                             f"(no {MARKER} marker or summary.json of a run): nothing was written; choose an "
+                             f"empty or new folder")
+    if name is not None and name != scene and not overwrite:
+        raise OutputDirError(f"--out {out}: the folder holds the results of scene {name!r}, not {scene!r}: "
+                             f"choose another folder, or pass --overwrite to replace them")
+
+
+def make_out_dir(out_dir: str | os.PathLike) -> list[Path]:
+    """Create ``out_dir`` and its missing parents; returns the folders created (outermost first).
+    OutputDirError (and nothing left behind) when the file system refuses."""
+    out = Path(out_dir)
+    missing = []
+    p = out.absolute()
+    while not p.exists():
+        missing.append(p)
+        if p == p.parent:
+            break
+        p = p.parent
+    created: list[Path] = []
+    try:
+        for d in reversed(missing):
+            d.mkdir()
+            created.append(d)
+    except OSError as e:
+        remove_created(created)
+        raise OutputDirError(f"--out {out}: cannot create the folder: {e.strerror or e}") from None
+    return created
+
+
+def remove_created(created: list[Path]) -> None:
+    """Remove the folders :func:`make_out_dir` created (innermost first), each only if empty."""
+    for d in reversed(created):
+        try:
+            d.rmdir()
+        except OSError:
+            break
+
+
+def mark_results_folder(out_dir: str | os.PathLike, scene: str | None) -> None:
+    """Write the marker :data:`MARKER` of a results folder of ``scene`` (None: any scene)."""
+    path = Path(out_dir) / MARKER
+    tmp = path.with_name(f"{path.name}.tmp{os.getpid()}")
+    tmp.write_text(json.dumps({"scene": scene, "written_by": "fenics-plast"}) + "\n", encoding="utf-8")
+    os.replace(tmp, path)
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:         # another user's process
+        return True
+    except (OverflowError, ValueError):
+        return False
+    return True
+
+
+class RunLock:
+    """The lock of a results folder, held by one run (rank 0) from start to end.
+
+    :meth:`acquire` creates :data:`LOCK` atomically (written under a temporary name, then hard-linked
+    to its name, which fails if it exists) with the PID and host. A lock whose PID is alive (or of
+    another host, where that cannot be checked) is an :class:`OutputDirError` naming it; a stale one
+    (its PID is not alive on this host) is taken over, with :attr:`warning` saying so.
+    :meth:`release` removes it (only if it is still this run's)."""
+
+    def __init__(self, path: Path, warning: str | None = None):
+        self.path = path
+        self.warning = warning
+        self.released = False
+
+    @classmethod
+    def acquire(cls, out_dir: str | os.PathLike) -> "RunLock":
+        import socket
+        path = Path(out_dir) / LOCK
+        host = socket.gethostname()
+        me = {"pid": os.getpid(), "host": host}
+        tmp = path.with_name(f"{path.name}.tmp{os.getpid()}")
+        warning = None
+        try:
+            tmp.write_text(json.dumps(me) + "\n", encoding="utf-8")
+            for _ in range(3):
+                try:
+                    os.link(tmp, path)
+                    return cls(path, warning)
+                except FileExistsError:
+                    pass
+                try:
+                    held = json.loads(path.read_text(encoding="utf-8"))
+                    pid, where = int(held["pid"]), str(held["host"])
+                except FileNotFoundError:
+                    continue                        # released meanwhile: try again
+                except (OSError, ValueError, KeyError, TypeError):
+                    pid, where = None, None         # not a lock of ours: unreadable, stale
+                if pid is not None and where != host:
+                    raise OutputDirError(f"{path.parent}: another run holds the folder: PID {pid} on host {where} "
+                                         f"({path}); if that run has ended, delete {path}")
+                if pid is not None and _pid_alive(pid):
+                    raise OutputDirError(f"{path.parent}: another run holds the folder: PID {pid} on this host "
+                                         f"({path}); wait for it to end, or choose another folder")
+                warning = (f"warning: {path} was left by a run that has ended (PID {pid} is not running): "
+                           f"taken over")
+                path.unlink(missing_ok=True)
+            raise OutputDirError(f"{path.parent}: cannot take the lock {path}: other runs keep taking it")
+        except OSError as e:
+            raise OutputDirError(f"{path.parent}: cannot create the lock {path}: {e.strerror or e}") from None
+        finally:
+            tmp.unlink(missing_ok=True)
+
+    def release(self) -> None:
+        if self.released:
+            return
+        self.released = True
+        try:
+            held = json.loads(self.path.read_text(encoding="utf-8"))
+            if int(held.get("pid", -1)) == os.getpid():
+                self.path.unlink()
+        except (OSError, ValueError, TypeError, AttributeError):
+            pass

@@ -265,6 +265,26 @@ def declared_figures(settings: Mapping[str, Any], references: Mapping[str, Any] 
     return figs
 
 
+def _check_names(out_dir: Path, settings: Mapping[str, Any]) -> None:
+    """PlotError unless every plot name (-> <name>.png) and profile output (<output>.csv) is a plain
+    file name in ``out_dir``: settings read from a results folder's summary.json are not trusted."""
+    from .output import file_name_problem
+    plots = settings.get("plots") or {}
+    if not isinstance(plots, Mapping):
+        raise PlotError(f"{out_dir}/summary.json: scene_settings.plots is not a table")
+    for name, p in plots.items():
+        why = file_name_problem(name)
+        if why:
+            raise PlotError(f"{out_dir}/summary.json: plots.{name!r}: the plot's name {why} (it names {name!r}.png "
+                            f"in the folder): refused")
+        if not isinstance(p, Mapping) or "type" not in p:
+            raise PlotError(f"{out_dir}/summary.json: plots.{name}: not a plot table (no type)")
+        out = p.get("output")
+        if p["type"] == "profile" and file_name_problem(out):
+            raise PlotError(f"{out_dir}/summary.json: plots.{name}.output = {out!r}: {file_name_problem(out)} "
+                            f"(it names the profile's CSV file in the folder): refused")
+
+
 def draw_declared(out_dir: str | Path, settings: Mapping[str, Any] | None = None, title: str | None = None,
                   references: Mapping[str, Any] | None = None, render: bool = True) -> list[Path]:
     """Draw the scene's declared figures into ``out_dir`` from its CSV files; ``settings=None``
@@ -282,6 +302,7 @@ def draw_declared(out_dir: str | Path, settings: Mapping[str, Any] | None = None
         title = title if title is not None else summary.get("scene")
         references = references if references is not None else summary.get("references")
     title = title if title is not None else (settings.get("scene") or {}).get("name")
+    _check_names(out_dir, settings)
     if not (out_dir / "history.csv").exists():
         raise PlotError(f"{out_dir}: no history.csv (not a results folder of `fenics-plast run`)")
     return _draw_figures(out_dir, declared_figures(settings, references), title, render)

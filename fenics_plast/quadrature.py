@@ -122,11 +122,26 @@ class QuadratureMap:
         if tangent:
             self._write(self.a, a, 81, self._qdofs_a, self.trivial_a)
         if bad:
-            with np.errstate(all="ignore"):
-                detmin = float(np.nanmin(np.linalg.det(Fu))) if np.isfinite(Fu).all() else float("nan")
-            raise MaterialUpdateError(
-                f"material update returned non-finite stress/tangent on rank {self.mesh.comm.rank} "
-                f"(min det Fu = {detmin:.3e})")
+            raise MaterialUpdateError(self._bad_cell_message(Fu, a if tangent else None))
+
+    def _bad_cell_message(self, Fu, a) -> str:
+        """Where the update failed: the first owned cell with a non-finite stress (or tangent), its
+        original (input) index, the centre of its reference shape [mm], det Fu there."""
+        per_point = ~np.isfinite(self.tau_values).all(axis=(1, 2))
+        if a is not None:
+            per_point |= ~np.isfinite(a).reshape(self.n, -1).all(axis=1)
+        p = int(np.flatnonzero(per_point)[0])
+        cell = p // self.nq
+        from fenics_plast import dolfinx_compat as dc
+        centre = self.mesh.geometry.x[dc.geometry_dofs(self.mesh)[cell], : self.mesh.geometry.dim].mean(axis=0)
+        original = int(self.mesh.topology.original_cell_index[cell])
+        Fc = Fu[cell * self.nq:(cell + 1) * self.nq]
+        det = float(np.linalg.det(Fc).min()) if np.isfinite(Fc).all() else float("nan")
+        where = ", ".join(f"{c} = {v:.4g}" for c, v in zip("xyz", centre))
+        return (f"material update returned a non-finite stress or tangent in cell {original} (input "
+                f"numbering, reference centre at {where} mm; {int(per_point.sum())} point(s) on rank "
+                f"{self.mesh.comm.rank}; smallest det Fu there {det:.3e}): the cell is inverted or crushed "
+                f"in this increment")
 
     def _write(self, fun, values, bs, blocks, trivial):
         if not trivial:

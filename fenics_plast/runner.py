@@ -12,10 +12,17 @@ One runner for every problem; it knows no scene by name. What it does, in order:
    (:mod:`fenics_plast.quantities`) into history.csv, fields into fields.xdmf, profiles at step ends;
 5. return the results for summary.json (final values, maxima, study keys, run statistics).
 
+Steps 1 and 2 run before the CLI creates the output folder (:func:`read_mesh`, :func:`prepare`): what
+they refuse (a mesh parameter out of range, a mesh too large for the memory, a value of x, y, z that
+is not finite at a node, a symmetry group that is not straight, a fixed time step above the stable
+limit, ...) is a SceneError, exit 2 with the key named and no file written.
+
 Times: static t is the pseudo-time (the load factor of the solver); explicit t is in seconds
 inside the package and in µs in scene files, tables and expressions, history.csv (``time_us``).
 """
 from __future__ import annotations
+
+import sys
 
 import numpy as np
 import ufl
@@ -27,6 +34,7 @@ from fenics_plast.checkpoint import Checkpointer, scene_settings
 from fenics_plast.material import Hardening, Material, MaterialRegions
 from fenics_plast.meshing import MeshError, mesh_from_file
 from fenics_plast.errors import SceneError
+from fenics_plast.expressions import ExpressionError
 from fenics_plast.schema import component_index
 
 US = 1e-6
@@ -48,13 +56,17 @@ def material_of(spec) -> Material:
     return Material(spec.E, spec.nu, hardening, model=spec.model)
 
 
-def read_mesh(problem, comm):
-    """Mesh + tags + groups; checks every group and region the scene names (SceneError, exit 2)."""
+def read_mesh(problem, comm, trust_mesh_script=False):
+    """Mesh + tags + groups; checks every group and region the scene names (SceneError, exit 2).
+    The mesh file is screened first unless ``trust_mesh_script`` (:mod:`fenics_plast.geo_screen`;
+    Include and Merge may read the scene file's folder and the package's meshes/)."""
     m = problem.mesh
     where = f"{problem.path}"
     gdim = 3 if m.geometry == "3d" else 2     # cell regions have dim gdim, facet groups gdim - 1
+    check_mesh_parameters(problem, comm, gdim, trust_mesh_script)
     try:
-        mesh, ct, ft, groups = mesh_from_file(comm, problem.mesh_file, m.parameters, m.refine, gdim=gdim)
+        mesh, ct, ft, groups = mesh_from_file(comm, problem.mesh_file, m.parameters, m.refine, gdim=gdim,
+                                              trust_script=trust_mesh_script, scene_dir=problem.path.parent)
     except MeshError as e:
         raise SceneError(f"{where}: mesh.file: {e}") from None
     fdim = gdim - 1
@@ -90,7 +102,154 @@ def read_mesh(problem, comm):
         for r in iv.regions or ():
             need(f"initial_velocity.{n}.regions", r, gdim)
     check_material_regions(problem, ct, groups, mesh)
+    check_on_mesh(problem, mesh, ct, ft, groups)
     return mesh, ct, ft, groups
+
+
+#: the memory a run needs at the least per cell [bytes] (2-D, 3-D): half what the cheapest run takes,
+#: measured on explicit runs of 2e4 to 3e4 cells (8 kB per quadrilateral, 11 kB per hexahedron; a static
+#: run with MUMPS took 20 kB per quadrilateral at 1.5e4 cells, Gmsh's and dolfinx's meshes alone 0.7 and
+#: 1.2 kB), so that a refused mesh could not have run
+MIN_BYTES_PER_CELL = {2: 4000, 3: 5000}
+#: the largest magnitude of a mesh parameter (that is not a cell count) without a Max in its .geo, and of a
+#: node coordinate [mm]: 1000 km
+MAX_PARAMETER = 1e9
+
+
+def check_mesh_parameters(problem, comm, gdim, trust_mesh_script=False):
+    """Before meshing (SceneError, exit 2, collective): every mesh parameter that is not a cell count
+    lies within the Min and Max its .geo's DefineConstant gives, or is > 0 where it gives no Min and at
+    most :data:`MAX_PARAMETER` where it gives no Max (cell counts: integers >= 1, checked by
+    validation); and the mesh the parameters and mesh.refine ask for
+    (:func:`fenics_plast.meshing.estimate_cells`, on the screened file) fits in the machine's memory at
+    :data:`MIN_BYTES_PER_CELL`."""
+    from fenics_plast.geo_screen import GeoScreenError, screen
+    from fenics_plast.meshing import estimate_cells, geo_parameters, machine_memory, refined
+    from fenics_plast.schema import is_cell_count
+    m, where, path = problem.mesh, problem.path, problem.mesh_file
+    if path.suffix.lower() != ".geo" or not path.is_file():
+        return                                      # (mesh_from_file reports what is wrong with the file)
+    declared = geo_parameters(path)
+    for k, x in m.parameters.items():
+        if is_cell_count(k):
+            continue
+        d = declared.get(k, {})
+        lo, hi = d.get("min"), d.get("max")
+        if lo is None and not x > 0:
+            raise SceneError(f"{where}: mesh.parameters.{k} = {x:g} is out of range: must be > 0 (a length; "
+                             f"{path.name} may allow other values with Min in its DefineConstant)")
+        if hi is None and abs(x) > MAX_PARAMETER:       # (Gmsh crashes on coordinates near 1e300)
+            raise SceneError(f"{where}: mesh.parameters.{k} = {x:g} is out of range: must be at most "
+                             f"{MAX_PARAMETER:g} (mm; {path.name} may allow more with Max in its DefineConstant)")
+        if lo is not None and x < lo or hi is not None and x > hi:
+            raise SceneError(f"{where}: mesh.parameters.{k} = {x:g} is out of range: {path.name} allows "
+                             f"{lo if lo is not None else '-inf'} <= {k} <= {hi if hi is not None else 'inf'} "
+                             f"(Min and Max of its DefineConstant)")
+    values = refined(m.parameters, m.refine)
+    cells = None
+    if comm.rank == 0:
+        try:
+            if not trust_mesh_script:
+                screen(path, problem.path.parent)   # Gmsh reads no file the screen refuses
+            cells = estimate_cells(path, values, gdim)
+        except GeoScreenError:
+            cells = None                            # mesh_from_file reports it
+    cells = comm.bcast(cells, root=0) if comm.size > 1 else cells
+    memory = machine_memory()
+    if cells is None or memory is None or cells * MIN_BYTES_PER_CELL[gdim] <= memory:
+        return
+    counts = ", ".join(f"{k} = {v:g}" for k, v in m.parameters.items() if is_cell_count(k))
+    given = (f"mesh.refine = {m.refine} (times mesh.parameters {counts})" if m.refine != 1 else
+             f"mesh.parameters: {counts}")
+    if np.isfinite(cells):
+        need = (f"about {cells:.3g} cells, which need at least {cells * MIN_BYTES_PER_CELL[gdim] / 2**30:.3g} GiB "
+                f"of memory ({MIN_BYTES_PER_CELL[gdim] / 1e3:g} kB per cell, half what the cheapest run takes)")
+    else:
+        need = "more than 1e15 cells, more than any machine's memory holds"
+    raise SceneError(f"{where}: {given}: {need}; this machine has {memory / 2**30:.3g} GiB: lower mesh.refine or "
+                     f"the cell counts")
+
+
+def _collective_raise(comm, msg):
+    """Raise SceneError(msg) on every rank when any rank has a message (the first rank's)."""
+    msgs = comm.allgather(msg) if comm.size > 1 else [msg]
+    first = next((m for m in msgs if m), None)
+    if first:
+        raise SceneError(first)
+
+
+def check_on_mesh(problem, mesh, cell_tags, facet_tags, groups):
+    """What the scene asks of the mesh, checked before anything is written (SceneError naming the key,
+    collective): node coordinates finite and, in axisymmetry, every node at r = x >= 0; every value of
+    x, y, z (boundary values over their group's nodes, from t = 0 to the end of the analysis;
+    initial velocities over their regions' nodes) finite; each symmetry group straight, and its normal
+    component held by no other condition of the group; a reaction output on a component its group
+    holds."""
+    from fenics_plast.expressions import check_times
+    from fenics_plast.validation import analysis_end, held_components
+    comm, where = mesh.comm, problem.path
+    geometry, gdim, tdim = problem.mesh.geometry, mesh.geometry.dim, mesh.topology.dim
+    key = "mesh.parameters" if problem.mesh.parameters else "mesh.file"
+    X = mesh.geometry.x[:, :gdim]
+    msg = None
+    if not np.isfinite(X).all() or np.abs(X).max(initial=0.0) > MAX_PARAMETER:
+        msg = f"{where}: {key}: the mesh has node coordinates that are not finite or beyond {MAX_PARAMETER:g} mm"
+    _collective_raise(comm, msg)
+    if geometry == "axisymmetric":
+        rmin = comm.allreduce(float(X[:, 0].min()) if len(X) else np.inf, op=MPI.MIN)
+        size = comm.allreduce(float(np.abs(X).max()) if len(X) else 0.0, op=MPI.MAX)
+        if rmin < -1e-9 * max(size, 1e-300):
+            raise SceneError(f"{where}: {key}: with mesh.geometry = 'axisymmetric' x is the radius: every node "
+                             f"must lie at x >= 0, and this mesh reaches x = {rmin:.6g} mm")
+    V1 = dc.function_space(mesh, "Lagrange", 1)
+    Xn = V1.tabulate_dof_coordinates()
+    times = check_times(analysis_end(problem.tables))
+
+    def coords(dofs):
+        return dict(x=Xn[dofs, 0], y=Xn[dofs, 1], z=Xn[dofs, 2])
+    msg = None
+    try:
+        for n, b in problem.boundary.items():
+            val = b.get("value")
+            if val is None or b.group is None:
+                continue
+            dofs = fem.locate_dofs_topological(V1, tdim - 1, facet_tags.find(groups[b.group][1]))
+            for v in (val if isinstance(val, tuple) else (val,)):
+                if v.depends_on_space and len(dofs):
+                    v.check_finite(times, **coords(dofs))
+        for n, iv in problem.initial_velocity.items():
+            if iv.regions is None:
+                dofs = np.arange(Xn.shape[0])
+            else:
+                cells = np.concatenate([cell_tags.find(groups[r][1]) for r in iv.regions]).astype(np.int32)
+                dofs = dc.locate_cell_dofs(V1, cells)
+            for v in iv.value:
+                if v.depends_on_space and len(dofs):
+                    v.check_finite(times[:1], **coords(dofs))
+    except ExpressionError as e:
+        msg = f"{where}: {e}"
+    _collective_raise(comm, msg)
+    holder = {}
+    for n, b in problem.boundary.items():
+        for c in held_components(b, geometry):
+            holder[(b.group, c)] = n
+    V = None
+    for n, b in problem.boundary.items():
+        if b.type != "symmetry":
+            continue
+        V = V if V is not None else dc.vector_space(mesh)
+        c = symmetry_component(V, facet_tags, groups[b.group][1], f"{where}: boundary.{n}")
+        if (b.group, c) in holder:
+            other = holder[(b.group, c)]
+            raise SceneError(f"{where}: boundary.{n}: the component normal to symmetry group {b.group!r} "
+                             f"({({'3d': 'xyz', 'plane_strain': 'xy'}.get(geometry, 'rz'))[c]}) is also held by "
+                             f"boundary.{other} (type = "
+                             f"{problem.boundary[other].type!r}): one condition per component of a group")
+        holder[(b.group, c)] = n
+    for n, o in problem.outputs.items():
+        if o.quantity == "reaction" and (o.group, component_index(o.component, geometry)) not in holder:
+            raise SceneError(f"{where}: outputs.{n}: group {o.group!r} has no boundary condition on component "
+                             f"{o.component}: there is no reaction to record")
 
 
 def check_material_regions(problem, cell_tags, groups, mesh):
@@ -151,6 +310,34 @@ def contact_modulus(material, mesh, facet_tags, tag):
     moduli = np.array([m.E for m in material.materials])
     E = mesh.comm.allreduce(float(moduli[material.cell_material[cells]].max()) if cells.size else 0.0, op=MPI.MAX)
     return E if E > 0.0 else material.E
+
+
+#: a contact pair whose largest penetration exceeds this fraction of the depth of the cells along its
+#: group is reported as not to be trusted (log and summary.json "warnings")
+PENETRATION_WARNING = 0.05
+
+
+def warn(comm, msg: str) -> None:
+    """A warning line on stderr (rank 0), whatever the progress display (FENICS_PLAST_PROGRESS=off too)."""
+    if comm is None or comm.rank == 0:
+        print(f"warning: {msg}", file=sys.stderr, flush=True)
+
+
+def penetration_report(name, penetration, depth, penalty, default_penalty, comm) -> dict:
+    """summary.json entries of contact pair ``name``: its largest penetration [mm] over the depth [mm]
+    of the cells along its group (``<name>_penetration_per_cell_depth``) and, above
+    PENETRATION_WARNING, a warning (:func:`warn`, and in the list "warnings") naming the penalty used
+    and the pair's default one [N/mm^3]."""
+    ratio = penetration / depth if depth > 0 else 0.0
+    out = {f"{name}_penetration_per_cell_depth": ratio, "warnings": []}
+    if ratio > PENETRATION_WARNING:
+        msg = (f"contact.{name}: the largest penetration, {penetration:.3g} mm, is {100 * ratio:.3g} % of the "
+               f"depth of the cells along its group ({depth:.3g} mm; more than {100 * PENETRATION_WARNING:g} %): "
+               f"the penalty {penalty:.3g} N/mm^3 is too soft for this load (this pair's default is "
+               f"{default_penalty:.3g} N/mm^3); its forces and the shape near it cannot be trusted")
+        warn(comm, msg)
+        out["warnings"].append(msg)
+    return out
 
 
 def cell_regions(cell_tags, groups, n_owned):
@@ -321,9 +508,40 @@ def draw_plots(problem, output):
         output.log(f"warning: plots of {output.out_dir} not drawn: {type(e).__name__}: {e}")
 
 
+def prepare(problem, comm, mesh_data):
+    """The run's set-up from the checked mesh (``mesh_data``: :func:`read_mesh`'s): the solver with its
+    conditions, loads, contact pairs and initial state, built before anything is written, so that every
+    rule the set-up enforces (a symmetry group that is not straight, a reaction without a condition, a
+    wall with the body on both sides, a fixed time step above the stable limit, ...) refuses the scene
+    with SceneError (exit 2) and no file. Returns what :func:`run` takes as ``mesh_data``; progress lines
+    of the set-up go to stdout (rank 0). Collective."""
+    import time
+    t0 = time.perf_counter()
+
+    def log(msg):
+        if comm.rank == 0:
+            print(msg, flush=True)
+    try:
+        if problem.explicit:
+            from fenics_plast.runner_explicit import build_explicit, checked_steps
+            built = build_explicit(problem, comm, mesh_data, log=log)
+            built.history_rows = checked_steps(problem, built.solver)
+        else:
+            from fenics_plast.runner_static import build_static
+            built = build_static(problem, comm, mesh_data, log=log)
+    except ExpressionError as e:
+        raise SceneError(f"{problem.path}: {e}") from None
+    built.setup_s = time.perf_counter() - t0
+    return built
+
+
 def run(problem, output, mesh_data=None) -> dict:
     """CLI entry point: runs the problem, returns the results for summary.json. ``mesh_data``: the
-    result of :func:`read_mesh` when the caller has read (and checked) the mesh already."""
+    result of :func:`read_mesh` when the caller has read (and checked) the mesh already, or of
+    :func:`prepare` (the solver built), or the exception :func:`prepare` raised (raised here, where
+    the CLI reports a failed run)."""
+    if isinstance(mesh_data, BaseException):
+        raise mesh_data
     comm = output.comm if output.comm is not None else MPI.COMM_WORLD
     if problem.explicit:
         from fenics_plast.runner_explicit import run_explicit

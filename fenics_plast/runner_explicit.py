@@ -11,10 +11,12 @@ History rows are ``output.history_points`` equally spaced times (time_us + the d
 """
 from __future__ import annotations
 
+import math
 from types import SimpleNamespace
 
 import numpy as np
 from dolfinx import fem
+from mpi4py import MPI
 
 from fenics_plast import dolfinx_compat as dc
 from fenics_plast.kinematics import Kinematics
@@ -22,8 +24,8 @@ from fenics_plast.errors import RunError, SceneError
 from fenics_plast.schema import M_S
 from fenics_plast.quantities import Body, Quantities
 from fenics_plast.runner import (body_material, cell_regions, checkpointer, components_of, contact_modulus,
-                                 draw_plots, initial_velocity_field, open_fields, read_mesh, symmetry_component,
-                                 tool_of, values_of, write_final_shape)
+                                 draw_plots, initial_velocity_field, open_fields, penetration_report, read_mesh,
+                                 symmetry_component, tool_of, values_of, write_final_shape)
 from fenics_plast.solvers.collapse import TimeStepCollapse
 from fenics_plast.solvers.explicit import ExplicitDynamics
 
@@ -79,6 +81,26 @@ def add_walls(problem, solver, ft, groups):
             raise SceneError(f"{problem.path}: {e}") from None
 
 
+def checked_steps(problem, solver) -> int:
+    """The number of history rows of the run (collective): ``output.history_points``, capped at one
+    per time step (the estimate: analysis.time_steps, or end_time over dt_safety x the initial stable
+    step; rows closer than a step would force shorter steps); a fixed step above the stable limit
+    (analysis.time_steps) refuses the scene (SceneError)."""
+    ana = problem.analysis
+    dt_stable = solver.stable_dt()
+    if ana.time_steps is not None:
+        dt = ana.end_time / ana.time_steps
+        if dt > dt_stable:
+            raise SceneError(
+                f"{problem.path}: analysis.time_steps = {ana.time_steps}: the time step end_time/time_steps = "
+                f"{dt:.4g} s exceeds the stable limit {dt_stable:.4g} s ({solver._limit_text(dt_stable)}); use at "
+                f"least {math.ceil(ana.end_time / dt_stable)} steps or drop analysis.time_steps")
+        steps = ana.time_steps
+    else:
+        steps = math.ceil(ana.end_time / (ana.dt_safety * max(dt_stable, ana.mass_scaling_dt)) - 1e-9)
+    return int(min(problem.output.history_points, max(steps, 1) + 1))
+
+
 def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
     """The explicit solver of ``problem`` with its constraints, loads, contact pairs and initial
     velocity, ready to ``run``: a namespace of ``solver``, ``material``, ``tools`` (name -> tool),
@@ -112,13 +134,15 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
             fns[c] = (lambda v: (lambda t: float(v.evaluate(t=t / US))))(v)
         solver.add_traction(ft, groups[b.group][1], tuple(fn or (lambda t: 0.0) for fn in fns))
     tools = {n: tool_of(n, t, time_scale=US) for n, t in problem.tools.items()}
-    pairs = {}
+    pairs, contact_scales = {}, {}      # contact_scales: name -> (cell depth [mm], default penalty [N/mm^3])
     if problem.contact:
         from fenics_plast.tools import contact_length_scale, default_penalty
         for name, spec in problem.contact.items():
             tag = groups[spec.group][1]
-            eps = spec.penalty if spec.penalty is not None else default_penalty(
-                contact_modulus(material, mesh, ft, tag), contact_length_scale(mesh, ft, tag))
+            depth = contact_length_scale(mesh, ft, tag)
+            default = default_penalty(contact_modulus(material, mesh, ft, tag), depth)
+            eps = spec.penalty if spec.penalty is not None else default
+            contact_scales[name] = (depth, default)
             pairs[name] = solver.add_contact(tools[spec.tool], ft, tag, penalty=eps, friction=spec.friction,
                                              law=spec.law, tangential_penalty=spec.tangential_penalty)
     # m/s as written -> mm/s, per node (regions, expressions of x, y, z)
@@ -132,17 +156,24 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
                 cell_regions(ct, groups, solver.qmap.n_owned), tool_force=tool_force,
                 energies=solver.energies, tool_translation=lambda tool, t: tools[tool].translation(t, use_ufl=False),
                 geometry=problem.mesh.geometry)
-    return SimpleNamespace(solver=solver, material=material, tools=tools, pairs=pairs, body=body, mesh=mesh,
-                           cell_tags=ct, facet_tags=ft, groups=groups)
+    return SimpleNamespace(solver=solver, material=material, tools=tools, pairs=pairs, contact_scales=contact_scales,
+                           body=body, mesh=mesh, cell_tags=ct, facet_tags=ft, groups=groups)
 
 
 def run_explicit(problem, output, comm, mesh_data=None) -> dict:
-    b = build_explicit(problem, comm, mesh_data, log=output.log)
+    if isinstance(mesh_data, SimpleNamespace):      # built by runner.prepare (before anything was written)
+        b = mesh_data
+        b.solver.log = output.log
+    else:
+        b = build_explicit(problem, comm, mesh_data, log=output.log)
     solver, material, pairs, mesh = b.solver, b.material, b.pairs, b.mesh
     ana = problem.analysis
     quantities = Quantities(problem.outputs, b.body, b.facet_tags, b.groups)
     end_time = ana.end_time
-    rows = int(problem.output.history_points)
+    rows = b.history_rows if "history_rows" in vars(b) else checked_steps(problem, solver)
+    if rows < problem.output.history_points:
+        output.log(f"{problem.name}: output.history_points = {problem.output.history_points} is more than the run's "
+                   f"about {rows - 1} time steps: {rows} history rows (one per step at most)")
     every = int(problem.output.every)
     xf = open_fields(problem, output, comm, mesh)
     state = dict(row=0, eqps=None, temperature=None)
@@ -176,8 +207,13 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
                                f"{cols['mass_scaled_cells']} cells): the answer may be another body's; a "
                                f"smaller analysis.mass_scaling_dt adds less")
             cols.update(wall_erosion_columns(s))
+            nonfinite_guard(cols, f"{problem.name}: history row at t = {t / US:.6g} us")
             output.history(time_us=t / US, **cols)
-        if xf is not None and (state["row"] % every == 0 or t >= end_time * (1 - 1e-12) or state.get("stop")):
+        # (a stop where fields were just written, e.g. a fold in the first step, writes none again)
+        if xf is not None and (state["row"] % every == 0 or t >= end_time * (1 - 1e-12) or state.get("stop")) \
+                and state.get("fields_t") != t:
+            state["fields_t"] = t
+            fields_guard(s, f"{problem.name}: fields at t = {t / US:.6g} us")
             state["eqps"] = s.qmap.cell_mean(s.qmap.eqps, name="eqps", out=state["eqps"])
             xf.write_function(s.u, t / US)
             xf.write_function(state["eqps"], t / US)
@@ -247,15 +283,46 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
         # largest penetration of the run and its penalty; the springs' stable-step limit (collective calls)
         res.update(contact_work_J=e["contact_work"] * 1e-3, contact_stored_J=e["contact_stored"] * 1e-3,
                    tool_work_J=e["tool_work"] * 1e-3, dt_stable_contact_s=solver.contact.dt_stable)
+        warnings = []
         for name, p in pairs.items():
             res[f"{name}_max_penetration_mm"] = p.max_penetration_run()
             res[f"{name}_penalty_N_mm3"] = p.penalty
+            depth, default = b.contact_scales[name]
+            report = penetration_report(name, res[f"{name}_max_penetration_mm"], depth, p.penalty, default, comm)
+            warnings += report.pop("warnings")
+            res.update(report)
+        if warnings:
+            res["warnings"] = warnings
+    nonfinite_guard(res, f"{problem.name}: results")
     write_final_shape(problem, output, solver.V, solver.nodal_positions(), solver.qmap)
     draw_plots(problem, output)
     if stop is not None:
         res.update(stop.results)
         raise RunError(f"{problem.name}: {stop}", results=res)
     return res
+
+
+def nonfinite_guard(values: dict, where: str):
+    """The last line against a non-finite number in a result file: a RunError (a failed run, exit 1)
+    naming the entries of ``values`` (name -> number; other entries are not looked at) that are not
+    finite, instead of writing them. The solver stops at its last finite state before that (a fold,
+    :class:`~fenics_plast.solvers.collapse.CellFold`), so this is a defect's report."""
+    bad = [k for k, x in values.items() if isinstance(x, (float, np.floating)) and not np.isfinite(x)]
+    if bad:
+        raise RunError(f"{where}: {', '.join(bad)} not finite, not written (the explicit solver should have "
+                       f"stopped at its last finite state: a defect, please report it with the scene)")
+
+
+def fields_guard(solver, where: str):
+    """:func:`nonfinite_guard` for the fields written (displacement, equivalent plastic strain,
+    temperature: their sources; collective)."""
+    arrays = [solver.u.x.array, solver.qmap.eqps] + ([solver.qmap.temperature] if solver.qmap.thermal else [])
+    bad = not all(np.isfinite(a).all() for a in arrays)
+    if solver.comm.size > 1:
+        bad = solver.comm.allreduce(bad, op=MPI.LOR)
+    if bad:
+        raise RunError(f"{where}: a field value is not finite, not written (the explicit solver should have "
+                       f"stopped at its last finite state: a defect, please report it with the scene)")
 
 
 def mass_scaling_columns(solver) -> dict:
@@ -291,4 +358,5 @@ def eroded_field(solver, out=None):
     return out
 
 
-__all__ = ["run_explicit", "velocity_constraints", "mass_scaling_columns", "wall_erosion_columns", "add_walls"]
+__all__ = ["run_explicit", "checked_steps", "velocity_constraints", "mass_scaling_columns", "wall_erosion_columns",
+           "add_walls", "nonfinite_guard", "fields_guard"]

@@ -19,21 +19,40 @@ from fenics_plast.schema import component_index
 from fenics_plast.quadrature import von_mises
 from fenics_plast.quantities import Body, Quantities
 from fenics_plast.runner import (body_material, cell_regions, checkpointer, components_of, contact_modulus,
-                                 draw_plots, open_fields, read_mesh, symmetry_component, tool_of, values_of,
-                                 write_final_shape)
+                                 draw_plots, open_fields, penetration_report, read_mesh, symmetry_component,
+                                 tool_of, values_of, write_final_shape)
 from fenics_plast.solvers.static import StaticSolver
 
 
-def _prescribed(value):
-    """value(X (3, n), t) for StaticSolver.add_prescribed from a scene value (t = pseudo-time)."""
+def ramp_end(problem, b, value) -> float | None:
+    """The pseudo-time t_ramp over which a boundary value is ramped (from 0 at t = 0 to its full value
+    at t_ramp, then held): the end of the first load step, for a value that does not depend on t and
+    whose amplitude is "ramp" (the default); None: the value is applied as written."""
+    if value.depends_on_time or b.get("amplitude", "step") == "step":
+        return None
+    return load_steps(problem)[0][1]
+
+
+def _prescribed(value, t_ramp):
+    """value(X (3, n), t) for StaticSolver.add_prescribed from a scene value (t = pseudo-time), ramped
+    up to ``t_ramp`` (None: as written)."""
+    def factor(t):
+        return 1.0 if t_ramp is None else min(float(t) / t_ramp, 1.0)
     if value.constant is not None:
         c = float(value.constant)
-        return lambda X, t: np.full(X.shape[1], c)
-    return lambda X, t: np.asarray(value.evaluate(x=X[0], y=X[1], z=X[2], t=t), dtype=float) * np.ones(X.shape[1])
+        return lambda X, t: np.full(X.shape[1], c * factor(t))
+    return lambda X, t: (np.asarray(value.evaluate(x=X[0], y=X[1], z=X[2], t=t), dtype=float) * factor(t)
+                         * np.ones(X.shape[1]))
+
+
+def _ramped_ufl(expr, t, t_ramp):
+    """A UFL boundary value ramped up to ``t_ramp`` in the load Constant ``t`` (None: as written)."""
+    return expr if t_ramp is None else expr * ufl.min_value(t / t_ramp, 1.0)
 
 
 def apply_boundary(problem, s, ft, groups):
-    """Dirichlet conditions and dead loads of [boundary]; returns {group: set of constrained components}."""
+    """Dirichlet conditions and dead loads of [boundary]; returns {group: set of constrained components}.
+    A value that does not depend on t is ramped over the first load step unless its amplitude is "step"."""
     constrained: dict[str, set] = {}
     X = ufl.SpatialCoordinate(s.mesh)
     w = s.kin.weight
@@ -50,19 +69,19 @@ def apply_boundary(problem, s, ft, groups):
         elif b.type == "displacement":
             comps = components_of(b, geometry)
             for c, val in zip(comps, values_of(b, len(comps))):
-                s.add_prescribed(c, ft, tag, _prescribed(val))
+                s.add_prescribed(c, ft, tag, _prescribed(val, ramp_end(problem, b, val)))
         elif b.type in ("traction", "pressure"):
             ds = ufl.Measure("ds", domain=s.mesh, subdomain_data=ft)(tag)
             t_ufl = s.load
             if b.type == "pressure":
-                p = b.value.to_ufl(**coords, t=t_ufl)
+                p = _ramped_ufl(b.value.to_ufl(**coords, t=t_ufl), t_ufl, ramp_end(problem, b, b.value))
                 traction = -p * ufl.FacetNormal(s.mesh)
             else:
                 comps = components_of(b, geometry)
                 vals = values_of(b, len(comps))
                 tv = [ufl.as_ufl(0.0)] * gdim
                 for c, val in zip(comps, vals):
-                    tv[c] = val.to_ufl(**coords, t=t_ufl)
+                    tv[c] = _ramped_ufl(val.to_ufl(**coords, t=t_ufl), t_ufl, ramp_end(problem, b, val))
                 traction = ufl.as_vector(tv)
             s.add_residual(-ufl.dot(traction, s.v) * w * ds)
             continue
@@ -92,21 +111,41 @@ def reaction_dofs(problem, s, ft, groups, constrained):
 
 
 def add_contact(problem, s, ft, groups, material, tools):
-    """The [contact] pairs as penalty terms of the residual (None when the scene has none)."""
+    """The [contact] pairs as penalty terms of the residual: (the contact set or None when the scene has
+    none, {name: pair}, {name: (depth of the cells along its group [mm], its default penalty [N/mm^3])})."""
     if not problem.contact:
-        return None, {}
+        return None, {}, {}
     from fenics_plast.contact import PenaltyContact
     from fenics_plast.tools import contact_length_scale, default_penalty
     c = PenaltyContact(s)            # every pair carries its own penalty, friction and law
-    pairs = {}
+    pairs, scales = {}, {}
     for name, spec in problem.contact.items():
         tag = groups[spec.group][1]
-        eps = spec.penalty if spec.penalty is not None else default_penalty(
-            contact_modulus(material, s.mesh, ft, tag), contact_length_scale(s.mesh, ft, tag))
+        depth = contact_length_scale(s.mesh, ft, tag)
+        default = default_penalty(contact_modulus(material, s.mesh, ft, tag), depth)
+        eps = spec.penalty if spec.penalty is not None else default
         pairs[name] = c.add_pair(tools[spec.tool], ft, tag, penalty=eps, friction=spec.friction, law=spec.law,
                                  tangential_penalty=spec.tangential_penalty)
+        scales[name] = (depth, default)
     c.attach()
-    return c, pairs
+    return c, pairs, scales
+
+
+#: a penalty this many times above or below its pair's default is named as a likely cause of a failure
+PENALTY_HINT_RATIO = 100.0
+
+
+def _penalty_hint(b, pairs) -> str:
+    """A sentence naming the contact pairs whose penalty is far from their default (a failure's likely
+    cause: too stiff makes Newton's systems ill-conditioned and its steps overshoot, too soft lets the
+    body through), or ""."""
+    hints = []
+    for n, p in pairs.items():
+        ratio = p.penalty / b.contact_scales[n][1]
+        if ratio > PENALTY_HINT_RATIO or ratio < 1.0 / PENALTY_HINT_RATIO:
+            hints.append(f"contact.{n}.penalty = {p.penalty:.3g} N/mm^3 is {ratio:.3g} times this pair's default "
+                         f"({b.contact_scales[n][1]:.3g} N/mm^3)")
+    return f" Likely cause: {'; '.join(hints)}." if hints else ""
 
 
 def load_steps(problem) -> list[tuple[str, float, int, float]]:
@@ -132,7 +171,7 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None) -> Simp
     s = StaticSolver(kin, material, element=problem.mesh.element, log=log, progress=progress, **opts)
     constrained = apply_boundary(problem, s, ft, groups)
     tools = {n: tool_of(n, t) for n, t in problem.tools.items()}
-    contact, pairs = add_contact(problem, s, ft, groups, material, tools)
+    contact, pairs, contact_scales = add_contact(problem, s, ft, groups, material, tools)
     s.setup()
     reactions = reaction_dofs(problem, s, ft, groups, constrained)
 
@@ -154,6 +193,7 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None) -> Simp
                 reaction=s.reaction, tool_force=tool_force, tool_translation=tool_translation,
                 geometry=problem.mesh.geometry)
     return SimpleNamespace(solver=s, material=material, tools=tools, contact=contact, pairs=pairs,
+                           contact_scales=contact_scales,
                            reactions=reactions, body=body, positions=positions, Vc=Vc, mesh=mesh, cell_tags=ct,
                            facet_tags=ft, groups=groups)
 
@@ -162,8 +202,12 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
     t_setup = time.perf_counter()
     steps = load_steps(problem)
     t_end = steps[-1][1]
-    b = build_static(problem, comm, mesh_data, log=output.log,
-                     progress=output.progress(t_end, problem.name, what="t"))
+    if isinstance(mesh_data, SimpleNamespace):      # built by runner.prepare (before anything was written)
+        b, t_setup = mesh_data, t_setup - mesh_data.setup_s
+        b.solver._log, b.solver.progress = output.log, output.progress(t_end, problem.name, what="t")
+    else:
+        b = build_static(problem, comm, mesh_data, log=output.log,
+                         progress=output.progress(t_end, problem.name, what="t"))
     s, contact, pairs, mesh, positions, Vc = b.solver, b.contact, b.pairs, b.mesh, b.positions, b.Vc
     ana = problem.analysis
     quantities = Quantities(problem.outputs, b.body, b.facet_tags, b.groups, b.reactions)
@@ -233,12 +277,20 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
         res = quantities.summary("t")
         res.update(quantities.study_keys())
         res.update(cells=cells, dofs=s.dofs, converged=converged, increments=len(s.increments),
-                   newton_iterations=s.total_iterations, cutbacks=len(s.cutbacks), element=problem.mesh.element,
+                   newton_iterations=s.total_iterations, cutbacks=len(s.cutbacks),
+                   linesearch_retries=len(s.linesearch_retries), element=problem.mesh.element,
                    final_time=s.lam_converged)
         if contact is not None:
             res["max_penetration_mm"] = contact.max_penetration()
+            warnings = []
             for n, p in pairs.items():
                 res[f"penalty_{n}_N_mm3"] = p.penalty
+                depth, default = b.contact_scales[n]
+                report = penetration_report(n, p.max_penetration(), depth, p.penalty, default, comm)
+                warnings += report.pop("warnings")
+                res.update(report)
+            if warnings:
+                res["warnings"] = warnings
         return res
 
     def finish():
@@ -258,7 +310,8 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
         quantities.record_profiles(s.lam_converged)
         e.results.update(results(False))
         finish()
-        raise RunError(f"{problem.name}: stopped at t = {s.lam_converged:.6g}. {e}", results=e.results) from None
+        raise RunError(f"{problem.name}: stopped at t = {s.lam_converged:.6g}. {e}{_penalty_hint(b, pairs)}",
+                       results=e.results) from None
     finally:
         if xf is not None:
             xf.close()

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 __all__ = ["SCHEMA", "SECTIONS", "Key", "Table", "REQUIRED", "OPTIONAL", "COMPONENTS", "COMPONENTS_3D", "GEOMETRIES",
-           "component_index", "component_names", "vector_size", "LAWS", "US", "M_S", "KG_M3"]
+           "component_index", "component_names", "is_cell_count", "vector_size", "LAWS", "US", "M_S", "KG_M3"]
 
 
 class _Marker:
@@ -48,6 +48,12 @@ def component_index(name: str, geometry: str) -> int:
     """Index of component ``name`` in ``geometry``: "z" is 1 in 2-D (r, z) but 2 in 3-D; KeyError for a
     name that does not apply (e.g. "r" in 3-D)."""
     return component_names(geometry)[name]
+
+
+def is_cell_count(name: str) -> bool:
+    """Whether the mesh parameter ``name`` is a number of cells (an integer >= 1 that ``mesh.refine``
+    multiplies): a name that starts with ``cells`` or ends in ``_cells``."""
+    return name.startswith("cells") or name.endswith("_cells")
 
 
 def vector_size(geometry: str) -> int:
@@ -131,7 +137,8 @@ class Table:
 
 
 _FORCE_UNITS = ("N", "kN")
-_VALUE_DOC = ("a number, an expression of x, y, z, t in quotes (\"3.0*t\"), or a table "
+_VALUE_DOC = ("a number, an expression of x, y, z, t in quotes (\"3.0*t\"; x, y, z are the reference "
+              "(initial) coordinates [mm]; the grammar is in the README, 'Expressions'), or a table "
               "{ t = [...], value = [...] } (piecewise linear, constant outside)")
 
 SCHEMA: dict[str, Table] = {
@@ -216,10 +223,16 @@ SCHEMA: dict[str, Table] = {
             "element": Key("str", "q1p0", "q1p0: Q1 displacement + DG0 dilatation (F-bar); q1: plain Q1 "
                            "(quadrilaterals in 2-D, hexahedra in 3-D).",
                            choices=("q1p0", "q1")),
-            "refine": Key("int", 1, "Multiplies every mesh parameter whose name starts with `cells` (.geo only).",
-                          **_count()),
+            "refine": Key("int", 1, "Multiplies every cell count of `[mesh.parameters]` (.geo only). Before "
+                          "meshing, the mesh's size is estimated (the .geo meshed at a smaller scale) and refused "
+                          "when it would need more than the machine's memory (at 4 kB per cell in 2-D, 5 kB in 3-D, "
+                          "half what the cheapest run takes).", **_count()),
         }, subtables={"parameters": Table("Named numbers passed to the .geo file (its DefineConstant "
-                                          "\"Parameters/<name>\"); unknown names are refused.", free=True)}),
+                                          "\"Parameters/<name>\"); unknown names are refused. A name that starts "
+                                          "with `cells` or ends in `_cells` is a cell count: an integer >= 1; any "
+                                          "other must be > 0 and at most 1e9 (a length in mm), or lie within the "
+                                          "`Min` and `Max` the .geo's DefineConstant gives it (e.g. `{0.0, Min 0, Max 0.9, Name "
+                                          "\"Parameters/imperfection\"}`).", free=True)}),
     "materials": Table(
         "Materials, one table per name. Each applies to the cell regions it lists; a single material "
         "without `regions` applies to the whole mesh.", optional=False, collection=True, keys={
@@ -290,8 +303,8 @@ SCHEMA: dict[str, Table] = {
                          "for every type but wall, where it names the nodes the wall stops (absent: every "
                          "node)."),
             "type": Key("str", REQUIRED, "fixed: components held at 0; displacement: prescribed [mm]; velocity "
-                        "(explicit): prescribed [m/s]; traction: dead load [MPa] per reference area; pressure: "
-                        "normal dead load [MPa], positive pushes into the body; symmetry: the normal component "
+                        "(explicit): prescribed [m/s]; traction: dead load [MPa] per reference area (in axisymmetry on the "
+                        "whole revolved surface); pressure: normal dead load [MPa], positive pushes into the body; symmetry: the normal component "
                         "held at 0 (the group must lie in a line (2-D) or plane (3-D) normal to x, y or z); axis: "
                         "u_r = 0 (axisymmetric only); wall (explicit): a rigid frictionless plane normal to "
                         "`components` at `position` that the nodes cannot pass (a node that reaches it stops "
@@ -306,6 +319,12 @@ SCHEMA: dict[str, Table] = {
                             when={"type": ("wall",)}),
             "value": Key("values", REQUIRED, "One value per component (a list), or one value for all.",
                          when={"type": ("displacement", "velocity", "traction", "pressure")}),
+            "amplitude": Key("str", "ramp", "How a value that does not depend on t is applied (static): ramp = "
+                             "from 0 at t = 0 to its full value at the end of the first step (t = 1 without "
+                             "[steps]), then held, as Abaqus and CalculiX ramp a static step's loads; step = in "
+                             "full from the first increment on. Values that depend on t (tables, expressions of "
+                             "t) are applied as written.", choices=("ramp", "step"),
+                             when={"type": ("displacement", "traction", "pressure")}, when_analysis=STATIC),
         }),
     "initial_velocity": Table(
         "Initial velocity (explicit), one table per name.", collection=True, when_analysis=EXPLICIT, keys={
@@ -375,9 +394,12 @@ SCHEMA: dict[str, Table] = {
         }),
     "outputs": Table(
         "Quantities recorded every increment (static) or history row (explicit): each is a history.csv "
-        "column named <name>_<unit>, and its final value goes into summary.json.",
+        "column named <name>_<unit>, and its final value goes into summary.json. In axisymmetry, forces "
+        "(reaction, tool_force) and energies are those of the whole 360° body.",
         collection=True, discriminator="quantity", keys={
-            "quantity": Key("str", REQUIRED, "reaction: sum of the reactions on a constrained group; "
+            "quantity": Key("str", REQUIRED, "reaction: sum of the reactions on a constrained group (a node "
+                            "that another group also constrains in the same component is left out: its reaction "
+                            "belongs to both, e.g. a corner on a symmetry line); "
                             "tool_force: force of a tool on the body; tool_displacement: the tool's translation; "
                             "displacement / position: of the node "
                             "nearest `point`; extent: largest or smallest current coordinate of a group (or "
@@ -447,8 +469,10 @@ SCHEMA: dict[str, Table] = {
         "xdmf": Key("bool", True, "Write fields to fields.xdmf."),
         "every": Key("int", 1, "Write fields every N increments (static) or history rows (explicit).", **_count()),
         "plots": Key("bool", True, "Draw the [plots] as PNG files."),
-        "history_points": Key("int", 200, "Number of history rows (explicit).", when_analysis=EXPLICIT,
-                              lo=2, lo_open=False),
+        "history_points": Key("int", 200, "Number of history rows (explicit), equally spaced in time. At most "
+                              "one per time step: a run of fewer steps (analysis.time_steps, or end_time over "
+                              "dt_safety x the initial stable step) writes one row per step and says so in its log.",
+                              when_analysis=EXPLICIT, lo=2, lo_open=False, hi=100000, hi_open=False),
         "checkpoint_every": Key("int", None, "Checkpoint every N steps (explicit) or converged increments "
                                 "(static) into checkpoint/ (0: never); `--resume DIR` continues a killed run.",
                                 analysis_default={"explicit": 2000, "static": 10}, lo=0, lo_open=False),

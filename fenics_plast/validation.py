@@ -12,9 +12,11 @@ import math
 from typing import Any
 
 from fenics_plast.errors import SceneError
-from fenics_plast.expressions import ExpressionError, parse_expression, parse_value
-from fenics_plast.schema import (OPTIONAL, REQUIRED, SCHEMA, SECTIONS, Key, Table, _VALUE_DOC, _num, component_names,
-                                  vector_size)
+from fenics_plast.output import file_name_problem
+from fenics_plast.expressions import (ExpressionError, check_output_expression, check_times, parse_expression,
+                                      parse_value)
+from fenics_plast.schema import (OPTIONAL, REQUIRED, SCHEMA, SECTIONS, US, Key, Table, _VALUE_DOC, _num,
+                                  component_names, is_cell_count, vector_size)
 
 __all__ = ["Section", "validate_tables"]
 
@@ -333,12 +335,35 @@ def validate_tables(raw: dict, where: str) -> dict[str, Any]:
     return tables
 
 
+def _shown(name: str) -> str:
+    """A name for a message: as is when short and printable, else quoted and cut."""
+    if len(name) <= 60 and name.isprintable():
+        return name
+    return repr(name[:60]) + (f"... ({len(name)} characters)" if len(name) > 60 else "")
+
+
+def _name_checks(t: dict[str, Any], v: _Validator):
+    """Names that become file names (output.file_name_problem): scene.name (results/<name>), plots
+    (<name>.png) and outputs (<name>.csv for a thickness profile; checked for every output)."""
+    name = t["scene"].name
+    why = file_name_problem(name)
+    if why:
+        v.fail(f"scene.name = {_shown(name) if len(name) > 60 else _fmt(name)}: the name {why} (it names the "
+               f"default output folder results/<name>)")
+    for n in t["plots"]:
+        why = file_name_problem(n)
+        if why:
+            v.fail(f"plots.{_shown(n)}: the plot's name {why} (it names the file <name>.png in the output folder)")
+    for n in t["outputs"]:
+        why = file_name_problem(n)
+        if why:
+            v.fail(f"outputs.{_shown(n)}: the output's name {why} (it names a column of history.csv and, for a "
+                   f"thickness profile, the file <name>.csv in the output folder)")
+
+
 def _cross_checks(t: dict[str, Any], v: _Validator):
     """Rules between keys (each message names the keys)."""
-    name = t["scene"].name
-    if not name.strip() or name.strip() in (".", "..") or any(c in name for c in "/\\\0"):
-        v.fail(f"scene.name = {_fmt(name)}: must be a non-empty name without / or \\ (it names the "
-               f"default output directory results/<name>)")
+    _name_checks(t, v)
     ana, explicit = t["analysis"], v.analysis == "explicit"
     geometry = t["mesh"].geometry
     dim = vector_size(geometry)
@@ -446,7 +471,8 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
             v.fail(f"{d}: energies are recorded in explicit analyses only")
         if o.quantity == "expression":
             try:
-                parse_expression(o.expression, f"{d}.expression", symbols=("t",) + tuple(single_columns))
+                e = parse_expression(o.expression, f"{d}.expression", symbols=("t",) + tuple(single_columns))
+                check_output_expression(e, analysis_end(t))
             except ExpressionError as e:
                 v.fail(str(e))
         if o.at_max_of is not None and (column_count.get(o.at_max_of) != 1 or o.at_max_of == n
@@ -468,6 +494,7 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
     ends = [s.end for s in t["steps"].values()]
     if len(set(ends)) != len(ends):
         v.fail("steps: two steps have the same end")
+    _before_run_checks(t, v)
 
 
 
@@ -532,3 +559,74 @@ def _geometry_checks(t: dict[str, Any], v: _Validator, geometry: str):
         if p.type == "shape" and three_d:
             v.fail(f"plots.{n}.type = 'shape' draws 2-D meshes only: not available {where} (open fields.xdmf "
                    f"in ParaView)")
+
+
+def analysis_end(t: dict[str, Any]) -> float:
+    """The end of the analysis's time range, in the unit of t in the scene's values: static, the
+    pseudo-time at the end of the last step (1 without [steps]); explicit, end_time in µs."""
+    if t["analysis"].type == "explicit":
+        return t["analysis"].end_time / US
+    return max([s.end for s in t["steps"].values()] or [1.0])
+
+
+#: the kinds of [boundary] table that hold components of their group (axis: the radial one)
+_HOLDS = ("fixed", "displacement", "velocity", "axis")
+
+
+def held_components(b, geometry: str) -> list[int]:
+    """Indices of the components a [boundary] table holds (fixed, displacement, velocity: its
+    components; axis: r); a symmetry holds the one normal to its group, known on the mesh only."""
+    if b.type == "axis":
+        return [0]
+    if b.type in _HOLDS:
+        names = component_names(geometry)
+        return [names[c] for c in b.components]
+    return []
+
+
+def _before_run_checks(t: dict[str, Any], v: _Validator):
+    """What the scene alone tells about the run (issue 21): cell counts, one condition per component
+    of a group, reactions only where a condition holds, explicit motions and loads uniform, and every
+    value of t finite over the analysis (:func:`check_times` from 0 to :func:`analysis_end`). What
+    needs the mesh (values of x, y, z, symmetry groups) is checked by ``runner.read_mesh``."""
+    explicit, geometry = t["analysis"].type == "explicit", t["mesh"].geometry
+    for k, x in t["mesh"].parameters.items():
+        if is_cell_count(k) and not (float(x).is_integer() and x >= 1):
+            v.fail(f"mesh.parameters.{k} = {_fmt(x)} is out of range: a cell count (a name that starts with "
+                   f"'cells' or ends in '_cells') must be an integer >= 1")
+    holder: dict[tuple[str, int], str] = {}
+    for n, b in t["boundary"].items():
+        for c in held_components(b, geometry):
+            if (b.group, c) in holder:
+                other = holder[(b.group, c)]
+                label = {"3d": "xyz", "plane_strain": "xy"}.get(geometry, "rz")[c]
+                v.fail(f"boundary.{n}: component {label} of group {b.group!r} is "
+                       f"also held by boundary.{other} (type = {t['boundary'][other].type!r}): one condition per "
+                       f"component of a group (merge boundary.{other} and boundary.{n})")
+            holder[(b.group, c)] = n
+    symmetric = {b.group for b in t["boundary"].values() if b.type == "symmetry"}
+    for n, o in t["outputs"].items():
+        if o.quantity != "reaction" or o.group is None:
+            continue
+        if explicit:
+            v.fail(f"outputs.{n}.quantity = 'reaction' is for static analyses (explicit: tool_force, energy)")
+        c = component_names(geometry).get(o.component)
+        if c is not None and (o.group, c) not in holder and o.group not in symmetric:
+            v.fail(f"outputs.{n}: group {o.group!r} has no boundary condition on component {o.component}: there "
+                   f"is no reaction to record")
+    times = check_times(analysis_end(t))
+    for n, b in t["boundary"].items():
+        val = b.get("value")
+        if val is None:
+            continue
+        for x in (val if isinstance(val, tuple) else (val,)):
+            if explicit and x.depends_on_space:
+                what = ("prescribed motion" if b.type in ("velocity", "displacement") else "tractions")
+                v.fail(f"boundary.{n}.value: explicit {what} must be uniform over the group (a function of t only)")
+            if not x.depends_on_space:
+                try:
+                    x.check_finite(times)
+                except ExpressionError as e:
+                    v.fail(str(e))
+        if explicit and b.type == "pressure":
+            v.fail(f"boundary.{n}.type = 'pressure' is for static analyses (explicit: a uniform traction)")

@@ -8,7 +8,7 @@ DefineConstant[
   L = {26.667, Name "Parameters/length"},
   nr = {6, Name "Parameters/cells_radial"},
   nz = {24, Name "Parameters/cells_axial"},
-  imperfection = {0.0, Name "Parameters/imperfection"},
+  imperfection = {0.0, Min 0, Max 0.9, Name "Parameters/imperfection"},
   grading = {1.0, Name "Parameters/axial_grading"}
 ];
 R0 = R * (1 - imperfection);

@@ -30,6 +30,7 @@ from fenics_plast.checkpoint import CheckpointError, Checkpointer, Keyed
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import checkpoint_driver  # noqa: E402
+from scene_runs import needs_mpirun, serial_and_two_ranks  # noqa: E402
 
 COMMON = ["--set", "output.plots=false"]
 # shortened scenes with frequent checkpoints; (scene file, overrides, kill point, material name)
@@ -310,3 +311,93 @@ def test_restore_history_drops_later_rows(tmp_path):
     o2.close_history()
     assert (tmp_path / "history.csv").read_text().splitlines() == [
         "step,x", "0,0.0", f"1,{1 / 3!r}", f"2,{2 / 3!r}"]
+
+
+# ----------------------------------------------------------------------------------------------
+# a changed problem (issue 21): the fingerprint of the mesh and of the files it is read from
+
+
+def test_resume_refuses_an_edited_mesh_file_and_reports_a_corrupt_checkpoint(tmp_path):
+    """The bar (tests/scenes/bar.toml) with its .geo copied beside it, killed after its 2nd checkpoint.
+    The .geo edited (another radius), then edited in a comment only: each resume is refused (exit 2)
+    saying what changed, and touches nothing. The .geo restored and the newest checkpoint's rank file
+    corrupted: the run resumes from the older checkpoint, with a warning in the log and summary.json."""
+    scene_dir = tmp_path / "scene"
+    scene_dir.mkdir()
+    geo = scene_dir / "round_bar.geo"
+    shutil.copy(REPO / "meshes" / "round_bar.geo", geo)
+    scene = scene_dir / "bar.toml"
+    scene.write_text((REPO / "tests" / "scenes" / "bar.toml").read_text()
+                     .replace('"../../meshes/round_bar.geo"', '"round_bar.geo"'))
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "fenics_plast.cli", "run", str(scene), "--set", "output.checkpoint_every=2"]
+    env = dict(os.environ, FENICS_PLAST_PROGRESS="off")
+    r = subprocess.run(cmd + ["--out", str(out)], capture_output=True, text=True, cwd=REPO, timeout=300,
+                       env=dict(kill_env("after"), FENICS_PLAST_PROGRESS="off"))
+    assert r.returncode == 137, r.stdout[-2000:] + r.stderr[-2000:]
+    last = check_killed_dir(out, "after")
+    assert set(last["fingerprint"]["files"]) == {str(geo.resolve())} and len(last["fingerprint"]["mesh"]) == 64
+    original = geo.read_text()
+    before = {p.name: p.read_bytes() for p in list(out.iterdir()) + list((out / "checkpoint").iterdir()) if p.is_file()}
+
+    def resume():
+        return subprocess.run(cmd + ["--resume", str(out)], capture_output=True, text=True, cwd=REPO, timeout=300,
+                              env=env)
+    geo.write_text(original.replace("R0 = R * (1 - imperfection);", "R0 = 0.9 * R * (1 - imperfection);"))
+    r = resume()
+    assert r.returncode == 2, r.stdout[-2000:] + r.stderr[-2000:]
+    assert "the problem changed since the checkpoint was written" in r.stderr
+    assert f"the mesh file {geo.resolve()} was edited" in r.stderr and "the mesh differs" in r.stderr
+    geo.write_text(original + "// a comment\n")        # the same mesh, another file: refused all the same
+    r = resume()
+    assert r.returncode == 2 and "was edited" in r.stderr and "the mesh differs" not in r.stderr, r.stderr
+    after = {p.name: p.read_bytes() for p in list(out.iterdir()) + list((out / "checkpoint").iterdir()) if p.is_file()}
+    assert after == before                              # refused resumes touch nothing
+    geo.write_text(original)
+    newest = sorted((out / "checkpoint").glob("ckpt_*.rank0.npz"))[-1]
+    newest.write_bytes(newest.read_bytes()[:-10])
+    r = resume()
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    assert (f"warning: {out / 'checkpoint'}: the newest checkpoint could not be used (checkpoint {last['counter']}"
+            in r.stderr)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["resumed_from_checkpoint"] < last["counter"]
+    assert any(f"checkpoint {last['counter']}: {newest.name} does not match its manifest" in w
+               for w in summary["warnings"])
+
+
+def test_corrupt_newest_manifest_is_reported(tmp_path):
+    out = _Out(tmp_path)
+    c = Checkpointer(tmp_path, None, SETTINGS, "static", every=1, output=out)
+    for i in (1, 2):
+        c.save(i, solver=_state(i))
+    (tmp_path / "checkpoint" / "ckpt_000000002.json").write_text("{not json")
+    r = Checkpointer(tmp_path, None, SETTINGS, "static", resume=True, output=out)
+    assert r.load()["counter"] == 1
+    assert r.warnings == [f"{tmp_path / 'checkpoint'}: the newest checkpoint could not be used (checkpoint 2: its "
+                          f"manifest ckpt_000000002.json cannot be read): resumed from the older checkpoint 1"]
+    r2 = Checkpointer(tmp_path, None, SETTINGS, "static", resume=True, output=out)
+    (tmp_path / "checkpoint" / "ckpt_000000002.json").unlink()
+    r2.load()
+    assert r2.warnings == []                            # no warning when the newest one is fine
+
+
+def test_check_fingerprint_messages():
+    then = {"mesh": "a" * 64, "files": {"/s/m.geo": "1" * 64, "/s/part.geo": "2" * 64}}
+    ck.check_fingerprint("out", {"fingerprint": then}, dict(then))
+    ck.check_fingerprint("out", {}, then)                # a manifest without one: nothing to compare
+    now = {"mesh": "b" * 64, "files": {"/s/m.geo": "3" * 64, "/s/new.geo": "4" * 64}}
+    with pytest.raises(CheckpointError) as e:
+        ck.check_fingerprint("out", {"fingerprint": then}, now)
+    msg = str(e.value)
+    assert msg.startswith("out: the problem changed since the checkpoint was written: ")
+    for part in ("the mesh file /s/m.geo was edited", "the mesh is read from /s/new.geo now, not then",
+                 "the mesh was read from /s/part.geo then, not now", "the mesh differs (node coordinates or cells)"):
+        assert part in msg
+
+
+@needs_mpirun
+def test_mesh_fingerprint_does_not_depend_on_the_partition(tmp_path):
+    a, b = serial_and_two_ranks(REPO / "tests" / "mpi_mesh_fingerprint.py", [], tmp_path)
+    assert int(a["ranks"]) == 1 and int(b["ranks"]) == 2 and int(b["same_on_all_ranks"]) == 1
+    assert list(a["digests"]) == list(b["digests"]) and len(set(a["digests"])) == 3

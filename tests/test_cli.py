@@ -118,8 +118,11 @@ FAKE_RUNNER = '''
 import numpy as np
 from fenics_plast.errors import RunError
 
-def read_mesh(problem, comm):
+def read_mesh(problem, comm, **kwargs):
     return None
+
+def prepare(problem, comm, mesh_data):
+    return mesh_data
 
 def run(problem, output, mesh_data=None):
     for i in range(3):
@@ -143,6 +146,7 @@ def fake_runner(tmp_path, monkeypatch):
 
     from fenics_plast import runner
     monkeypatch.setattr(runner, "read_mesh", fake_runner_mod.read_mesh)
+    monkeypatch.setattr(runner, "prepare", fake_runner_mod.prepare)
     monkeypatch.setattr(runner, "run", fake_runner_mod.run)
     scene = tmp_path / "good.toml"
     scene.write_text(GOOD)

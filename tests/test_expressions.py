@@ -18,8 +18,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from fenics_plast import dolfinx_compat as dc
-from fenics_plast.expressions import (ExpressionError, Expression, FUNCTIONS, Table, Value,
-                                      parse_expression, parse_value, piecewise_linear)
+from fenics_plast.expressions import (ExpressionError, Expression, FUNCTIONS, Table, Value, check_output_expression,
+                                      check_times, parse_expression, parse_value, piecewise_linear)
 
 W = "boundary.top.value"
 PTS = np.array([[0.2, 0.3], [0.6, 0.1], [1 / 3, 1 / 3], [0.9, 0.05]])   # reference points
@@ -113,19 +113,21 @@ def test_literals_are_floats():
         elif isinstance(node, tuple):
             for child in node:
                 yield from nums(child)
-    found = list(nums(parse_expression("2**100 + max(3, x) - 7", W).tree))
-    assert sorted(found) == [2.0, 3.0, 7.0, 100.0]
+    found = list(nums(parse_expression("x**100 + max(3, x) - 7", W).tree))
+    assert sorted(found) == [3.0, 7.0, 100.0]
     assert all(type(v) is float for v in found)
+    # a part without symbols is computed once, in floats (2**100 is not a huge-integer computation)
+    assert parse_expression("2**100 * x", W).tree == ("*", ("num", 2.0 ** 100), ("sym", "x"))
 
 
 def test_non_finite_is_reported_and_can_be_allowed():
     t0 = time.perf_counter()
-    e = parse_expression("9**9**9", W)
+    e = parse_expression("9**9**t", W)
     with pytest.raises(ExpressionError) as err:
-        e.evaluate()
+        e.evaluate(t=9.0)
     assert time.perf_counter() - t0 < 1.0
-    assert W in str(err.value) and "9**9**9" in str(err.value) and "non-finite" in str(err.value)
-    assert e.evaluate(check_finite=False) == np.inf
+    assert W in str(err.value) and "9**9**t" in str(err.value) and "non-finite" in str(err.value)
+    assert e.evaluate(t=9.0, check_finite=False) == np.inf
     e = parse_expression("1/x + t", W)
     with pytest.raises(ExpressionError, match=r"non-finite value \(inf\) at x=0, t=3"):
         e.evaluate(x=[1.0, 0.0, 2.0], t=3.0)
@@ -158,8 +160,9 @@ def test_value_ufl_matches_numpy(square):
     v = parse_value("2*x + 3*t**2 - y", W)
     u = ufl_values(m, v.to_ufl(x=X[0], y=X[1], t=t), cells)
     np.testing.assert_allclose(u, v.evaluate(x=xy[..., 0], y=xy[..., 1], t=1.5), rtol=1e-14)
-    with pytest.raises(ExpressionError, match="cannot be built in UFL"):
-        parse_expression("1/0 + x", W).to_ufl(x=X[0])
+    # a division by the number 0 (which UFL cannot build) is refused when the expression is read
+    with pytest.raises(ExpressionError, match=r"'1/0' is not finite \(it computes to inf\) at column 1"):
+        parse_expression("1/0 + x", W)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -263,7 +266,14 @@ def test_value_forms(square):
     ("x" * 501, "501 characters long (at most 500)"),
     ("(" * 100 + "x" + ")" * 100, "nests too deeply"),
     ("-" * 100 + "x", "nests too deeply"),
-    ("+".join(["x"] * 45), "nests too deeply"),
+    ("x" + "**x" * 41, "nests too deeply (more than 40 levels)"),
+    ("x + " + "-" * 40 + "x", "nests too deeply (more than 40 levels)"),
+    # a part without symbols is computed when the expression is read, and must be finite
+    ("9**9**9", "'9**9**9' is not finite (it computes to inf) at column 1"),
+    ("10**400", "'10**400' is not finite (it computes to inf)"),
+    ("1e308*10*t", "'1e308*10' is not finite (it computes to inf) at column 1"),
+    ("x + log(0)", "'log(0)' is not finite (it computes to -inf) at column 5"),
+    ("t * sqrt(-1)", "'sqrt(-1)' is not finite (it computes to nan) at column 5"),
 ])
 def test_refused(text, culprit):
     with pytest.raises(ExpressionError) as err:
@@ -302,3 +312,65 @@ def test_expression_error_is_value_error():
     assert issubclass(ExpressionError, ValueError)
     with pytest.raises(ValueError):
         parse_value("x.y", W)
+
+
+# ---------------------------------------------------------------------------------------------
+# issue 21: nesting depth, checks before the run
+
+
+def test_nesting_depth_counts_levels_not_terms(square):
+    """A flat sum or product of many terms is one level (it was refused as "nesting deeper than 40
+    levels" at 41 terms); numpy and UFL give its value."""
+    m, X, cells, xy = square
+    for op, n in (("+", 200), ("-", 200), ("*", 150), ("/", 150)):
+        text = op.join(["x"] * n)
+        e = parse_expression(text, W)
+        x = np.array([0.5, 1.0, 2.0])
+        expected = {"+": n * x, "-": (2 - n) * x, "*": x ** n, "/": x ** (2 - n)}[op]
+        np.testing.assert_allclose(e.evaluate(x=x), expected, rtol=1e-12)
+    u = ufl_values(m, parse_expression("+".join(["x"] * 200), W).to_ufl(x=X[0]), cells)
+    np.testing.assert_allclose(u, 200 * xy[..., 0], rtol=1e-13)
+    # brackets, calls, signs and powers still open a level each
+    parse_expression("sin(" * 39 + "x" + ")" * 39, W)
+    with pytest.raises(ExpressionError, match="nests too deeply"):
+        parse_expression("sin(" * 41 + "x" + ")" * 41, W)
+
+
+def test_value_check_finite_over_times_and_points():
+    """Value.check_finite: over the analysis's times (check_times) and, for values of x, y, z, over the
+    points given; the message names the key and the first point."""
+    times = check_times(1.0)
+    assert times[0] == 0.0 and times[-1] == 1.0 and len(times) == 65
+    parse_value("exp(10*t)", W).check_finite(times)
+    parse_value(3.0, W).check_finite(times)
+    parse_value({"t": [0, 1], "value": [0, 2]}, W).check_finite(times)
+    with pytest.raises(ExpressionError, match=rf'^{W}: "log\(t\)" gives a non-finite value \(-inf\) at t=0$'):
+        parse_value("log(t)", W).check_finite(times)
+    with pytest.raises(ExpressionError, match=r"\(inf\) at t=0.71875"):
+        parse_value("exp(1000*t)", W).check_finite(times)
+    x = np.array([200.0, 150.0, 50.0])
+    parse_value("sqrt(x - 100) * t", W).check_finite(times, x=x[:2], y=x[:2], z=x[:2])
+    with pytest.raises(ExpressionError, match=r"\(nan\) at x=50"):
+        parse_value("sqrt(x - 100)", W).check_finite(times, x=x, y=x, z=x)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("force/(elongation - elongation)", "divides by (elongation - elongation), which is 0 whatever the values"),
+    ("force * elongation / (t - t)", "divides by (t - t)"),
+    ("log(t) + force", "is not finite at t = 0 (the first history row) for any of 32 sampled values"),
+    ("1/t", "is not finite at t = 0"),
+    ("sqrt(-1 - force**2)", "is not finite at t = 0"),
+])
+def test_output_expression_refused_before_the_run(text, message):
+    e = parse_expression(text, "outputs.ratio.expression", symbols=("t", "force", "elongation"))
+    with pytest.raises(ExpressionError) as err:
+        check_output_expression(e, 1.0)
+    assert str(err.value).startswith("outputs.ratio.expression: ") and message in str(err.value)
+
+
+@pytest.mark.parametrize("text", ["force / elongation", "sqrt(force)", "log(force) + t", "force / (elongation - 1)",
+                                  "1 / (t - 0.5)", "t"])
+def test_output_expression_that_may_be_finite_passes(text):
+    """What can be finite for some values of the outputs is left to the run (a non-finite value then
+    fails the run with exit 1 and the key)."""
+    check_output_expression(parse_expression(text, "o", symbols=("t", "force", "elongation")), 2.0)

@@ -14,7 +14,8 @@ text and read through :func:`fenics_plast.problem.load_problem`, the loader of `
   times, lengths that differ, empty or non-finite entries;
 * text edits of the file itself (a line deleted, duplicated or inserted; the text truncated;
   arrays and inline tables nested thousands deep; numbers of thousands of digits) and ``--set``
-  overrides.
+  overrides;
+* (issue 21) plot, output, material and scene names with path separators and dots.
 
 Property: the loader returns a valid problem (its numbers finite, ``to_dict`` and
 ``active_physics`` work, as ``fenics-plast run`` uses them before meshing) or raises SceneError
@@ -25,6 +26,15 @@ The default suite runs 300 examples, derandomized (the same ones every run), plu
 of number literals the generated ones may miss; ``-m slow`` runs 6000 random ones and keeps failures
 in .hypothesis/ to replay them. A few end-to-end checks run ``fenics-plast run`` on broken files:
 exit 2, the file and key on stderr, nothing written.
+
+Issue 21 adds what is checked on the mesh before anything is written: mesh parameters and
+``mesh.refine`` made zero, negative, fractional, tiny or huge (cell counts far beyond any machine's
+memory) on small scenes, read in-process through ``runner.read_mesh`` and ``runner.prepare`` (the
+phase of ``fenics-plast run`` before its output folder exists): SceneError naming the file and a key,
+or a set-up ready to run; and copies of a shipped ``.geo`` with a command that runs programs or
+writes files inserted (SystemCall, Shell, Printf > file, Save, Include and Merge from outside...):
+refused in-process, and through ``fenics-plast run`` end to end (exit 2 naming mesh.file, no
+traceback, no file written anywhere, the command never run).
 """
 from __future__ import annotations
 
@@ -283,7 +293,32 @@ def table(draw, raw):
     return "nothing"
 
 
-MUTATIONS = [delete, wrong_type, bad_number, other_string, unknown_name, expression, table]
+PATH_NAMES = st.one_of(
+    st.sampled_from(["../../x", "..", ".", "a/b", "/tmp/x", "a\\b", "x/..", "../", "./x", "a/../../../etc/passwd",
+                     "C:\\x", "..\\..\\x", "x\x00y", " x", "x/"]),
+    st.builds(lambda a, sep, b: a + sep + b, st.text(max_size=6), st.sampled_from(["/", "\\", "/../", "../"]),
+              st.text(max_size=6)))
+
+
+def path_name(draw, raw):
+    """Names that become file names (issue 21): scene.name, a plot's or an output's (or a material's,
+    not a file name) renamed to one with path separators or dots."""
+    name = draw(PATH_NAMES)
+    where = draw(st.sampled_from(["scene", "plots", "outputs", "materials"]))
+    if where == "scene":
+        if isinstance(raw.get("scene"), dict):
+            raw["scene"]["name"] = name
+        return f"scene.name = {name!r}"
+    section = raw.get(where)
+    if isinstance(section, dict) and section:
+        old = draw(st.sampled_from(sorted(section)))
+        section[name] = section.pop(old)
+        return f"{where}.{old} renamed {name!r}"
+    raw[where] = {name: {}}
+    return f"[{where}.{name!r}]"
+
+
+MUTATIONS = [delete, wrong_type, bad_number, other_string, unknown_name, expression, table, path_name]
 
 
 @st.composite
@@ -555,3 +590,185 @@ def test_cli_run_refuses_broken_files(tmp_path, edits, words):
         assert w in p.stderr, p.stderr
     assert "Traceback" not in p.stderr and not p.stdout
     assert not out.exists() and sorted(os.listdir(tmp_path)) == ["punch_stretching.toml"]
+
+
+# ----------------------------------------------------------------------------------------------
+# Issue 21: mesh parameters and mesh scripts, checked on the mesh before anything is written
+
+MESH_SCENES = [ROOT / "tests" / "scenes" / n for n in ("bar.toml", "ring.toml", "bar_on_wall.toml",
+                                                         "two_region_bar.toml")]
+# counts: not integers >= 1, or far beyond any machine's memory (1e10 cells and up); refine likewise
+COUNTS = st.sampled_from([0, -4, -1, 1, 2, 3, 2.5, 1e-3, 10 ** 10, 10 ** 12, 1e15, 2 ** 62, 1e300])
+REFINES = st.sampled_from([0, -1, 1, 2, 10 ** 6, 2 ** 40, 2 ** 62])
+LENGTHS = st.one_of(st.sampled_from([0, 0.0, -1, -6.413, 1e-300, 1e-12, 1e-3, 0.5, 2.5, 1e9, 1e12, 1e300,
+                                     -1e300, 0.9, 1.5]), st.floats(-10, 10))
+
+
+@st.composite
+def mesh_mutations(draw):
+    """--set options on mesh.parameters (cell counts and the other numbers) and mesh.refine."""
+    path = draw(st.sampled_from(MESH_SCENES))
+    params = sorted(BASE[path]["mesh"].get("parameters", {}))
+    sets = []
+    for _ in range(draw(st.integers(1, 3))):
+        what = draw(st.sampled_from(["count", "other", "refine"]))
+        if what == "refine" or not params:
+            sets.append(f"mesh.refine={draw(REFINES)}")
+            continue
+        names = [n for n in params if n.startswith("cells")] if what == "count" else \
+            [n for n in params if not n.startswith("cells")]
+        if names:
+            value = draw(COUNTS if what == "count" else LENGTHS)
+            sets.append(f"mesh.parameters.{draw(st.sampled_from(names))}={value!r}")
+    return path, sets
+
+
+def checked_on_mesh(path: Path, sets, what: str):
+    """The property of the phase before the output folder: SceneError naming the file and a key, or
+    a set-up ready to run; any other exception (or a Gmsh crash, which ends the test process) is a bug."""
+    from mpi4py import MPI
+
+    from fenics_plast.runner import prepare, read_mesh
+    msg = loads_or_refuses(path, sets, what)
+    if msg is not None:
+        return msg
+    problem = load_problem(path, sets)
+    try:
+        built = prepare(problem, MPI.COMM_WORLD, read_mesh(problem, MPI.COMM_WORLD))
+    except SceneError as e:
+        msg = str(e)
+        assert msg.startswith(f"{path}: "), f"{what}: {msg!r}"
+        assert any(msg[len(f"{path}: "):].startswith(n) for n in _leading_names(path, sets)), f"{what}: {msg!r}"
+        return msg
+    assert built.solver is not None, what
+    return None
+
+
+@settings(QUICK, max_examples=40)
+@given(case=mesh_mutations())
+def test_mesh_parameters_refused_or_ready(case):
+    path, sets = case
+    checked_on_mesh(path, sets, f"{path.name} --set {sets}")
+
+
+@pytest.mark.slow
+@settings(SLOW, max_examples=400)
+@given(case=mesh_mutations())
+def test_mesh_parameters_slow(case):
+    path, sets = case
+    checked_on_mesh(path, sets, f"{path.name} --set {sets}")
+
+
+# Commands that run programs or write files (each aimed at a marker file in the test's folder: were
+# one to run, it would only create that file).
+GEO_COMMANDS = [
+    'SystemCall "touch {m}";', 'SystemCall/* x */"touch {m}";', 'SystemCall StrCat("touch ", "{m}");',
+    'NonBlockingSystemCall "touch {m}";', 'System "touch {m}";', 'Shell "touch {m}";',
+    'Printf("x") > "{m}";', 'Printf("%g", 1) >> "{m}";', 'Save "{m}.msh";', 'Print "{m}.png";',
+    'OnelabRun("x", "touch {m}");', 'CreateDir "{m}.d";', 'Delete File "{m}";',
+    'Include "/etc/hostname";', 'Include "../outside.geo";', 'Merge "{m}.py";', 'Plugin(Remove).Run;',
+    'S2N["SystemCall"] "touch {m}";',
+]
+# Exit ends the process that reads the script (with status 0): tried through the CLI only, never in
+# the test process itself
+CLI_ONLY = ["Exit;"]
+GEO_FILES = sorted((ROOT / "meshes").glob("*.geo"))
+
+
+@st.composite
+def mutated_geos(draw, commands=tuple(GEO_COMMANDS)):
+    """A shipped .geo with one of ``commands`` inserted after a statement (a line ending in ;)."""
+    geo = draw(st.sampled_from(GEO_FILES))
+    lines = geo.read_text(encoding="utf-8").splitlines()
+    after = [i + 1 for i, line in enumerate(lines) if line.rstrip().endswith(";")]
+    at = draw(st.sampled_from([0] + after))
+    command = draw(st.sampled_from(commands))
+    spacing = draw(st.sampled_from(["", "  ", "\t", "\n"]))
+    return geo, lines, at, spacing + command
+
+
+def _scene_with_geo(folder: Path, geo: Path, lines, at, command) -> tuple[Path, Path]:
+    """bar.toml in ``folder`` meshing a copy of ``geo`` with ``command`` inserted (marker: folder/PWNED).
+    The scene keeps no mesh parameters (every .geo meshes with its own defaults)."""
+    marker = folder / "PWNED"
+    text = "\n".join(lines[:at] + [command.format(m=marker)] + lines[at:]) + "\n"
+    (folder / "mesh.geo").write_text(text, encoding="utf-8")
+    raw = copy.deepcopy(tomllib.loads((ROOT / "tests" / "scenes" / "bar.toml").read_text(encoding="utf-8")))
+    raw["mesh"] = {"file": "mesh.geo", "geometry": "axisymmetric"}
+    scene = folder / "scene.toml"
+    scene.write_text(tomli_w.dumps(raw), encoding="utf-8")
+    return scene, marker
+
+
+@settings(QUICK, max_examples=60)
+@given(case=mutated_geos())
+def test_mesh_scripts_that_run_commands_are_refused(tmp_path_factory, case):
+    """In-process (the phase before the output folder): SceneError naming mesh.file, the command not run."""
+    from mpi4py import MPI
+
+    from fenics_plast.runner import read_mesh
+    folder = tmp_path_factory.mktemp("geo")
+    scene, marker = _scene_with_geo(folder, *case)
+    with pytest.raises(SceneError) as err:
+        read_mesh(load_problem(scene), MPI.COMM_WORLD)
+    assert str(err.value).startswith(f"{scene}: mesh.file: "), err.value
+    assert "refused" in str(err.value) and "--trust-mesh-script" in str(err.value), err.value
+    assert sorted(p.name for p in folder.iterdir()) == ["mesh.geo", "scene.toml"] and not marker.exists()
+
+
+@settings(QUICK, max_examples=6)
+@given(case=mutated_geos(commands=tuple(GEO_COMMANDS + CLI_ONLY)))
+def test_mesh_scripts_refused_by_the_cli(tmp_path_factory, case):
+    """End to end: ``fenics-plast run`` exits 2 naming mesh.file, no traceback, nothing written."""
+    folder = tmp_path_factory.mktemp("geo_cli")
+    scene, marker = _scene_with_geo(folder, *case)
+    out = folder / "out"
+    p = subprocess.run([sys.executable, "-m", "fenics_plast.cli", "run", str(scene), "--out", str(out)],
+                       capture_output=True, text=True, cwd=folder, env=dict(os.environ, FENICS_PLAST_PROGRESS="off"),
+                       timeout=300)
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert p.stderr.startswith(f"error: {scene}: mesh.file: ") and "Traceback" not in p.stderr, p.stderr
+    assert not out.exists() and not marker.exists()
+    assert sorted(x.name for x in folder.iterdir()) == ["mesh.geo", "scene.toml"]
+
+
+def test_exit_in_a_mesh_script_refused_by_the_cli(tmp_path):
+    """Exit would end the run with status 0 and no message: refused like the others."""
+    lines = (ROOT / "meshes" / "round_bar.geo").read_text(encoding="utf-8").splitlines()
+    scene, marker = _scene_with_geo(tmp_path, GEO_FILES[0], lines, len(lines), "Exit;")
+    p = subprocess.run([sys.executable, "-m", "fenics_plast.cli", "run", str(scene), "--out", str(tmp_path / "out")],
+                       capture_output=True, text=True, cwd=tmp_path, env=dict(os.environ, FENICS_PLAST_PROGRESS="off"),
+                       timeout=300)
+    assert p.returncode == 2 and p.stderr.startswith(f"error: {scene}: mesh.file: ") and "Exit" in p.stderr, p.stderr
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["mesh.geo", "scene.toml"]
+
+
+@pytest.mark.parametrize("name", ["../../x", "a/b", "..", "/tmp/fenics_plast_fuzz_x"])
+@pytest.mark.parametrize("section", ["plots", "outputs", "scene"])
+def test_cli_names_with_path_separators(tmp_path, section, name):
+    """A plot, output or scene name that would put a file outside --out: exit 2 naming the key, no
+    file written anywhere (the work folder is a sub-folder of tmp_path: ../../x would land in it)."""
+    work = tmp_path / "a" / "b"
+    work.mkdir(parents=True)
+    raw = copy.deepcopy(tomllib.loads((ROOT / "tests" / "scenes" / "bar.toml").read_text(encoding="utf-8")))
+    raw["mesh"]["file"] = str(ROOT / "meshes" / "round_bar.geo")
+    if section == "scene":
+        raw["scene"]["name"] = name
+    elif section == "plots":
+        raw["output"]["plots"] = True
+        raw["plots"] = {name: {"x": "time", "y": ["force_kN"]}}
+    else:
+        raw["outputs"][name] = {"quantity": "thickness", "group": "outer", "opposite": "axis"}
+    scene = work / "scene.toml"
+    scene.write_text(tomli_w.dumps(raw), encoding="utf-8")
+    out = work / "out"
+    args = [sys.executable, "-m", "fenics_plast.cli", "run", str(scene)] + (["--out", str(out)] if section != "scene"
+                                                                              else [])
+    p = subprocess.run(args, capture_output=True, text=True, cwd=work, env=dict(os.environ, FENICS_PLAST_PROGRESS="off"),
+                       timeout=300)
+    assert p.returncode == 2, p.stdout + p.stderr
+    key = "scene.name" if section == "scene" else f"{section}."
+    assert p.stderr.startswith(f"error: {scene}: {key}") and "Traceback" not in p.stderr, p.stderr
+    files = sorted(str(f.relative_to(tmp_path)) for f in tmp_path.rglob("*"))
+    assert files == ["a", "a/b", "a/b/scene.toml"], files
+    assert not Path("/tmp/fenics_plast_fuzz_x").exists()

@@ -145,6 +145,18 @@ def test_too_large_first_increment_is_cut_back():
     assert s.increments[0]["load_factor"] < 1.0
 
 
+def test_cutbacks_count_cut_backs_only():
+    """A failed attempt retried at the same step with the other line search is a line-search retry, not
+    a cut-back (summary.json's ``cutbacks`` counted both); a cut-back halves the step."""
+    s = necking_bar(4, 12, 7.0, max_iterations=8).solver
+    assert s.run(increments=1, max_increment=1.0, min_increment=1e-4)
+    assert s.linesearch_retries and all("retry" in r for r in s.linesearch_retries)
+    assert s.cutbacks and all("retry" not in c for c in s.cutbacks)
+    converged = {round(i["load_factor"], 12) for i in s.increments}
+    cut = {round(c["load_factor"], 12) for c in s.cutbacks}
+    assert {round(r["load_factor"], 12) for r in s.linesearch_retries} <= converged | cut
+
+
 def test_min_increment_raises_run_error():
     from fenics_plast.errors import RunError
     s = necking_bar(2, 6, 7.0, max_iterations=2).solver

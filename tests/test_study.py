@@ -244,12 +244,11 @@ def test_short_taylor_study(tmp_path):
         assert by[name]["status"] == "invalid"
         assert "mesh.refine" in by[name]["reason"] and "refine >= 1" in by[name]["reason"]
         assert not (out / "runs" / name).exists()
-    # step above the stable limit: the run's error, from its summary.json
+    # step above the stable limit: refused by the run before it writes anything (exit 2, issue 21)
     for name in ("03_refine-1_time_steps-1", "05_refine-2_time_steps-1"):
-        assert by[name]["status"] == "failed"
-        assert "exceeds the stable limit" in by[name]["reason"]
-        summary = json.loads((out / "runs" / name / "summary.json").read_text())
-        assert by[name]["reason"] == summary["error"]
+        assert by[name]["status"] == "invalid"
+        assert "analysis.time_steps = 1" in by[name]["reason"] and "exceeds the stable limit" in by[name]["reason"]
+        assert not (out / "runs" / name / "summary.json").exists()
         assert by[name]["err_radius_mm"] == ""
     # the successful runs: every number is the summary's
     keys = TAYLOR_KEYS

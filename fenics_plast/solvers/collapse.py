@@ -4,8 +4,11 @@
 stable step falls below ``analysis.dt_floor`` x its initial value; the message names the cell (its
 index in the mesh file, where it is now and in the reference mesh), its size, aspect ratio, volume
 ratio J and corner angles (hexahedra: size V / A_max, aspect ratio and J, no angles), the collapse
-ratio, and the remedies with the scene keys to set. Lengths
-in mm, times in s (the message gives us where users write them).
+ratio, and the remedies with the scene keys to set. It calls :func:`fold_error` when a step would
+fold a cell (a quadrature point's Jacobian <= 0, found by the force pass before it writes anything):
+the run stops at the last finite state, and the message names the cell, its shape there, the point
+Jacobian the step would have reached, and the remedies (a fold is no collapse of the step: the floor
+does not see it). Lengths in mm, times in s (the message gives us where users write them).
 """
 from __future__ import annotations
 
@@ -29,6 +32,12 @@ class TimeStepCollapse(RunError):
         self.stats, self.loop = stats, loop
 
 
+class CellFold(TimeStepCollapse):
+    """The next step would fold a cell (a quadrature point's Jacobian <= 0, or a displacement that is
+    not finite): it was not taken, and the run stops at the last finite state (:func:`fold_error`).
+    A :class:`TimeStepCollapse` for the runner: outputs, fields and a checkpoint at the stop."""
+
+
 def critical_cell(solver) -> dict:
     """The cell that sets the element stable step (collective): dict with ``cell`` (its index in
     the mesh file's cell order), ``position`` and ``reference`` (vertex mean now and in the
@@ -47,32 +56,37 @@ def critical_cell(solver) -> dict:
     if solver.comm.rank == best[1] and i >= 0:
         dt_size = float(solver._hbuf[i])
         dt_el = float(solver._eig_dt(np.array([i]))[0])
-        if getattr(solver, "three_d", False):
-            info = _hex_cell_info(solver, i, dt_loc, dt_size, dt_el)
-            return solver.comm.bcast(info, root=best[1]) if solver.comm.size > 1 else info
-        idx = solver._cell_dofs[i]                        # cyclic order
-        P, P0 = solver._xbuf[idx].copy(), solver._X[idx]
-        size = float(quad_min_size(P[None])[0])
-        edges = np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1)
-
-        def volume(Q):
-            x, y = Q[:, 0], Q[:, 1]
-            xn, yn = np.roll(x, -1), np.roll(y, -1)
-            cross = x * yn - xn * y
-            # area 1/2 sum cross; axisymmetric: first moment int r dA = 1/6 sum (x + xn) cross (Pappus)
-            return float(((x + xn) * cross).sum() / 6.0) if solver.kin.axisymmetric else float(0.5 * cross.sum())
-
-        # interior corner angles [deg] (> 180: the cell is no longer convex), oriented as the reference
-        orient = 1.0 if volume(P0) > 0 else -1.0
-        ea, eb = np.roll(P, 1, axis=0) - P, np.roll(P, -1, axis=0) - P
-        ang = np.degrees(np.arctan2(orient * (eb[:, 0] * ea[:, 1] - eb[:, 1] * ea[:, 0]),
-                                    (ea * eb).sum(axis=1))) % 360.0
-        info = dict(cell=int(solver.mesh.topology.original_cell_index[i]), position=P.mean(axis=0).tolist(),
-                    reference=P0.mean(axis=0).tolist(), size=size,
-                    aspect=float(edges.max() / max(size, 1e-300)),
-                    volume_ratio=volume(P) / volume(P0), factor=float(solver.cell_scale[i]), dt=dt_loc,
-                    dt_size=dt_size, dt_element=dt_el, max_angle=float(ang.max()), min_angle=float(ang.min()))
+        info = _cell_info(solver, i, dt_loc, dt_size, dt_el)
     return solver.comm.bcast(info, root=best[1]) if solver.comm.size > 1 else info
+
+
+def _cell_info(solver, i, dt_loc, dt_size, dt_el):
+    """:func:`critical_cell`'s dict for owned cell i (rank-local; ``solver._xbuf`` holds the node
+    positions: call after ``solver._size_dt``)."""
+    if getattr(solver, "three_d", False):
+        return _hex_cell_info(solver, i, dt_loc, dt_size, dt_el)
+    idx = solver._cell_dofs[i]                        # cyclic order
+    P, P0 = solver._xbuf[idx].copy(), solver._X[idx]
+    size = float(quad_min_size(P[None])[0])
+    edges = np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1)
+
+    def volume(Q):
+        x, y = Q[:, 0], Q[:, 1]
+        xn, yn = np.roll(x, -1), np.roll(y, -1)
+        cross = x * yn - xn * y
+        # area 1/2 sum cross; axisymmetric: first moment int r dA = 1/6 sum (x + xn) cross (Pappus)
+        return float(((x + xn) * cross).sum() / 6.0) if solver.kin.axisymmetric else float(0.5 * cross.sum())
+
+    # interior corner angles [deg] (> 180: the cell is no longer convex), oriented as the reference
+    orient = 1.0 if volume(P0) > 0 else -1.0
+    ea, eb = np.roll(P, 1, axis=0) - P, np.roll(P, -1, axis=0) - P
+    ang = np.degrees(np.arctan2(orient * (eb[:, 0] * ea[:, 1] - eb[:, 1] * ea[:, 0]),
+                                (ea * eb).sum(axis=1))) % 360.0
+    return dict(cell=int(solver.mesh.topology.original_cell_index[i]), position=P.mean(axis=0).tolist(),
+                reference=P0.mean(axis=0).tolist(), size=size,
+                aspect=float(edges.max() / max(size, 1e-300)),
+                volume_ratio=volume(P) / volume(P0), factor=float(solver.cell_scale[i]), dt=dt_loc,
+                dt_size=dt_size, dt_element=dt_el, max_angle=float(ang.max()), min_angle=float(ang.min()))
 
 
 def _hex_cell_info(solver, i, dt, dt_size, dt_element):
@@ -131,7 +145,8 @@ def collapse_error(solver, dt_stable, dt_stable0, dt_floor, mass_scaling_dt) -> 
            + (f", mass-scaling density factor {c['factor']:.3g}" if c["factor"] > 1.0 else "")
            + ". Remedies: " + "; ".join(remedies) + ". (A lower analysis.dt_floor lets the run go on, at "
            "ever smaller steps.)")
-    results = dict(stopped_at_us=solver.t * 1e6, dt_collapse_ratio=ratio, collapse_cell=c["cell"],
+    results = dict(stop_reason="time_step_floor", stopped_at_us=solver.t * 1e6, dt_collapse_ratio=ratio,
+                   collapse_cell=c["cell"],
                    collapse_cell_position_mm=c["position"], collapse_cell_reference_mm=c["reference"],
                    collapse_cell_size_mm=c["size"], collapse_cell_aspect_ratio=c["aspect"],
                    collapse_cell_volume_ratio=c["volume_ratio"])
@@ -139,3 +154,89 @@ def collapse_error(solver, dt_stable, dt_stable0, dt_floor, mass_scaling_dt) -> 
         results["collapse_cell_max_angle_deg"] = c["max_angle"]
     results["collapse_cell_dt_element_s"] = c["dt_element"]
     return TimeStepCollapse(msg, results=results)
+
+
+#: a point Jacobian falling by more than this in the failed step: the step is long for the motion
+FOLD_IN_ONE_STEP = 0.05
+
+
+def fold_error(solver, fold, dt_stable0, dt_floor, mass_scaling_dt, step_key="analysis.dt_safety") -> CellFold:
+    """The :class:`CellFold` of a step that would fold a cell (collective), the solver back at the
+    last finite state. ``fold``: each rank's note of the failed step (``ExplicitDynamics._fold_back``:
+    ``cell``, its most folded owned cell there, ``j_next`` that cell's smallest point Jacobian,
+    ``finite`` whether u was finite, ``dt`` the step [s]). The cell named is the most folded one of
+    all ranks (ties: the lowest index in the mesh file), described at the stop as the time-step
+    floor's cell is (:func:`critical_cell`), with the remedies: when its point Jacobian would fall by
+    more than :data:`FOLD_IN_ONE_STEP` in that one step, the step is long for the motion (the Taylor
+    bar at 5000 m/s: nodes move half a cell per step) and ``step_key`` (the scene key of the step
+    size, with its value) is named; otherwise the cell flattened over many steps, which a smaller
+    step does not prevent."""
+    comm = solver.comm
+    i = fold["cell"]
+    orig = int(solver.mesh.topology.original_cell_index[i]) if i >= 0 else np.iinfo(np.int64).max
+    key = (fold["j_next"], orig, comm.rank)
+    keys = comm.allgather(key) if comm.size > 1 else [key]
+    best = min(keys)
+    finite = all(comm.allgather(fold["finite"])) if comm.size > 1 else fold["finite"]
+    dt_stable = solver.stable_dt()                      # at the stop (collective)
+    c = None
+    if comm.rank == best[2] and i >= 0:
+        dt_size = solver._size_dt()                     # node positions into solver._xbuf
+        d_size = float(dt_size[i])
+        d_el = float(solver._eig_dt(np.array([i]))[0])
+        c = _cell_info(solver, i, max(d_size, d_el) if solver.stable_step == "element" else d_size, d_size, d_el)
+        jnow = np.empty(solver.n_cells_own)
+        solver._folded_cells(jnow)
+        c["j_now"] = float(jnow[i])
+    c = comm.bcast(c, root=best[2]) if comm.size > 1 else c
+    j_next = best[0]
+    ratio = dt_stable / dt_stable0
+    ax = ("r", "z") if solver.kin.axisymmetric else ("x", "y", "z")[: len(c["position"])]
+    pos = f"({', '.join(ax)}) = ({', '.join(f'{x:.4g}' for x in c['position'])}) mm"
+    ref = f"({', '.join(f'{x:.4g}' for x in c['reference'])}) mm"
+    hexa = c["max_angle"] is None
+    t_next = (solver.t + fold["dt"]) * 1e6
+    if finite:
+        head = (f"cell {c['cell']} (the mesh file's cell order) folded in the step to t = {t_next:.4g} us (step "
+                f"{solver.step_count + 1}): the smallest volume ratio J at its quadrature points would go from "
+                f"{c['j_now']:.3g} to {j_next:.3g} (<= 0: turned inside out), where the material update has "
+                f"no answer.")
+    else:
+        head = (f"the displacement became non-finite in the step to t = {t_next:.4g} us (step "
+                f"{solver.step_count + 1}), first seen in cell {c['cell']} (the mesh file's cell order): the "
+                f"velocity was not finite (a load, prescribed motion or contact force that is not finite?).")
+    shape = (f"size (volume / largest face area) {c['size']:.3g} mm, aspect ratio {c['aspect']:.3g}, volume ratio "
+             f"J = {c['volume_ratio']:.3g}" if hexa else
+             f"smallest size {c['size']:.3g} mm, aspect ratio {c['aspect']:.3g}, volume ratio J = "
+             f"{c['volume_ratio']:.3g}, corner angles {c['min_angle']:.1f} to {c['max_angle']:.1f} degrees")
+    scaling = "selective mass scaling (analysis.mass_scaling_dt" + (
+        f" = {mass_scaling_dt * 1e6:.4g} us)" if mass_scaling_dt > 0.0 else ")")
+    drop = c["j_now"] - j_next
+    if finite and drop > FOLD_IN_ONE_STEP:
+        step = (f"The point Jacobian would fall by {drop:.3g} in this one step: the step is long for the motion "
+                f"there (its nodes move a large part of the cell per step), and a smaller step ({step_key}) "
+                f"follows the crushing further; {scaling} does not. Other remedies:")
+    else:
+        step = (f"The cell flattened over many steps: neither a smaller step ({step_key}) nor {scaling} "
+                f"prevents the fold. Remedies:")
+    msg = (f"{head} The run stops at the last finite state, t = {solver.t * 1e6:.4g} us (step "
+           f"{solver.step_count}), where the cell is at {pos} (reference {ref}): {shape}. The stable step "
+           f"is then {ratio:.3g} of its initial value, above analysis.dt_floor = {dt_floor:g}: a fold is not "
+           f"a collapse of the time step, which the floor would catch. {step} element erosion "
+           "(analysis.erosion_ratio, e.g. 0.1) removes a cell about to fold and goes on; a finer mesh "
+           "(mesh.refine) or one graded toward that cell delays the fold; another element or material model "
+           "(mesh.element, materials.<name>.model) may follow the deformation further; a node passing a rigid "
+           "support's plane is stopped by a wall on every node (boundary type 'wall')")
+    results = dict(stop_reason="cell_fold" if finite else "non_finite_displacement", stopped_at_us=solver.t * 1e6,
+                   dt_collapse_ratio=ratio, fold_cell=c["cell"],
+                   fold_cell_position_mm=c["position"], fold_cell_reference_mm=c["reference"],
+                   fold_cell_size_mm=c["size"], fold_cell_aspect_ratio=c["aspect"],
+                   fold_cell_volume_ratio=c["volume_ratio"], fold_cell_min_point_volume_ratio=c["j_now"])
+    results["fold_cell_next_point_volume_ratio"] = j_next
+    if not hexa:
+        results["fold_cell_max_angle_deg"] = c["max_angle"]
+    # (a point Jacobian that is not finite is in the message only: no non-finite number in a result)
+    results = {k: v for k, v in results.items() if not isinstance(v, float) or np.isfinite(v)}
+    e = CellFold(msg, results=results)
+    e.dt_stable = dt_stable
+    return e

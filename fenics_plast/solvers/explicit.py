@@ -47,6 +47,14 @@ prescribed motion, loads and contact see :mod:`fenics_plast.solvers.time_integra
   size, aspect ratio, volume ratio, corner angles, its element's own step) and the remedies
   (:mod:`fenics_plast.solvers.collapse`); the runner writes the outputs, fields and a checkpoint at
   the stop.
+* Fold guard (every step, both routes): the force pass first checks the new displacement's point
+  Jacobians (:func:`fused_force.folded_cell`: det F <= 0, F_hh <= 0 or not finite, in a living cell
+  that erosion does not take); a step that would fold a cell writes nothing of the state, stress or
+  force, is undone (u = u_n, v and du kept before it) and the run stops at that last finite state
+  with a :class:`~fenics_plast.solvers.collapse.CellFold`, handled by the runner as a collapse. A
+  fold is not a collapse of the stable step: in the Taylor bar above 300 m/s the axis cells fold
+  at 1.2-11 % of the initial step (at 5000 m/s in the third step, at 66 % of it), far above the
+  floor, and the point Jacobian goes through zero within one step.
 * Selective mass scaling (``mass_scaling_dt``, :meth:`~ExplicitDynamics.scale_mass`): at every
   re-estimate the cells whose stable step is below the target get density (factor s_c, never
   lowered) so that theirs reaches it; the mass goes to their nodes (assembled over the ranks) and
@@ -76,10 +84,10 @@ from fenics_plast.errors import RunError
 from fenics_plast.material import MaterialRegions
 from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 from fenics_plast.solvers import fused_force
-from fenics_plast.solvers.fused_force_hex import HexGeometry
+from fenics_plast.solvers.fused_force_hex import HexGeometry, hex_folded_cells
 from fenics_plast.solvers import time_integration as ti
 from fenics_plast.solvers.cell_steps import _QUAD_CYCLE, CellSteps
-from fenics_plast.solvers.collapse import collapse_error
+from fenics_plast.solvers.collapse import collapse_error, fold_error
 from fenics_plast.solvers.explicit_contact import ContactSet
 from fenics_plast.solvers.walls import RigidWalls
 
@@ -217,6 +225,9 @@ class ExplicitDynamics(CellSteps):
         # buffers
         self.a = np.zeros(self.n_own)
         self.du = np.zeros(self.n_own)
+        self._kept = np.zeros((2, self.n_own))     # v, du before the step in progress (_undo_step)
+        self._fold = None                           # a step that would fold a cell, undone (_fold_back)
+        self._flag = np.zeros(1, dtype=np.int32)    # _any_rank's buffer
         self.t = 0.0
         self.step_count = 0
         self.W_int = 0.0          # local (owned) accumulators, reduced when reported
@@ -408,30 +419,105 @@ class ExplicitDynamics(CellSteps):
         self.theta.x.scatter_forward()
 
     def _internal_force(self):
-        """Material update + commit at the current u, then f_int into self.f (owned)."""
+        """Material update + commit at the current u, then f_int into self.f (owned). Returns, the
+        same on every rank (one or two small collectives per step under MPI):
+        ``ti.STEP_OK``; ``ti.STEP_FOLDS`` when a cell folds at u on some rank (a quadrature point's
+        Jacobian <= 0 or not finite: :func:`fused_force.folded_cell`, checked first on both routes):
+        no rank has written anything of its quadrature state, stress or force, and the step is to be
+        undone (:meth:`_fold_back`); or ``ti.STEP_NONFINITE`` when a stress or force is not finite
+        on some rank (``_failure`` says which, on every rank; the fused route has committed that
+        update, the ufl route has not)."""
         if self.fused:
-            ok = fused_force.internal_force(*self._force_args)
-            if not ok and self._failure is None:
-                # rank-local: the global kinetic-energy check of run() reports it
-                self._failure = f"non-finite stress or internal force at step {self.step_count + 1}"
+            if not self._no_fold(fused_force.folded_cell(*self._force_args)):
+                return ti.STEP_FOLDS
+            ok = fused_force.update_and_force(*self._force_args)
             if self.comm.size > 1:
                 dc.scatter_reverse_add(self._ffun)
-            return
+            return self._agree(None if ok else f"non-finite stress or internal force at step {self.step_count + 1}")
+        if not self._no_fold(self._folded_cells()):
+            return ti.STEP_FOLDS
         if self.theta is not None:
             self._update_theta()
+        why = None
         try:
-            self.qmap.update(tangent=False)
+            self.qmap.update(tangent=False)      # into the trial state (collective writes, then raises)
         except MaterialUpdateError as e:
-            # may happen on one rank only: keep going so that the collectives below stay matched;
-            # the non-finite stress reaches the (global) kinetic-energy check of run()
-            if self._failure is None:
-                self._failure = f"{e} at step {self.step_count + 1}"
+            why = f"{e} at step {self.step_count + 1}"
+        if self._agree(why) != ti.STEP_OK:
+            return ti.STEP_NONFINITE            # nothing committed, no force assembled, on any rank
         self.qmap.commit()
         b = self._f
         with b.localForm() as bl:
             bl.set(0.0)
         fem_petsc.assemble_vector(b, self._L_int)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return ti.STEP_OK
+
+    def _no_fold(self, bad):
+        """True when no rank has a folding cell (``bad``: this rank's first one, or -1)."""
+        return not self._any_rank(bad >= 0)
+
+    def _any_rank(self, flag):
+        """``flag`` of any rank (one Allreduce of a preallocated int under MPI: called every step)."""
+        if self.comm.size == 1:
+            return bool(flag)
+        self._flag[0] = 1 if flag else 0
+        self.comm.Allreduce(MPI.IN_PLACE, self._flag, op=MPI.MAX)
+        return bool(self._flag[0])
+
+    def _agree(self, why):
+        """``ti.STEP_OK`` when no rank has a failure (``why``: this rank's reason, or None); else
+        ``ti.STEP_NONFINITE`` with ``_failure`` set on every rank (the lowest rank's reason)."""
+        if not self._any_rank(why is not None):
+            return ti.STEP_OK
+        whys = [w for w in self.comm.allgather(why) if w] if self.comm.size > 1 else [why]
+        if self._failure is None:
+            self._failure = whys[0]
+        return ti.STEP_NONFINITE
+
+    def _folded_cells(self, jmin=None):
+        """The first owned cell that folds at the current u (-1: none), by the fused pass's test
+        (:func:`fused_force.quad_folded_cells`, :func:`~fenics_plast.solvers.fused_force_hex.hex_folded_cells`);
+        ``jmin`` (n_cells_own,), when given, gets each cell's smallest point Jacobian (+inf: eroded or
+        eroding, -inf: not finite). Rank-local."""
+        g, u = self.geometry, self.u.x.array
+        buf = np.empty(0) if jmin is None else jmin
+        if self.three_d:
+            return int(hex_folded_cells(u, self._cell_nodes, g.dNdX, g.W, self.alive, self.erosion_ratio, buf))
+        return int(fused_force.quad_folded_cells(u, self._cell_nodes, g.dNdX, g.N, g.Rinv, g.W, self.alive,
+                                                 self.erosion_ratio, buf))
+
+    def _fold_back(self, dt):
+        """The step of size dt [s] would fold a cell: note the most folded cell of this rank at that
+        state (``_fold``: its owned index, smallest point Jacobian, whether u is finite) and go back
+        to the last finite state (:meth:`_undo_step`). Rank-local; run() stops the run
+        (:func:`~fenics_plast.solvers.collapse.fold_error`, collective)."""
+        jmin = np.empty(self.n_cells_own)
+        self._folded_cells(jmin)
+        i = int(np.argmin(jmin)) if jmin.size else -1
+        self._fold = dict(cell=i, j_next=float(jmin[i]) if i >= 0 else math.inf, dt=dt,
+                          finite=bool(np.isfinite(self.u.x.array[: self.n_own]).all()))
+        self._undo_step()
+
+    def _step_failed(self, status, dt):
+        """After a step of size dt whose force pass failed (``ti.STEP_FOLDS``: :meth:`_fold_back`;
+        ``ti.STEP_NONFINITE``: u, v, du back, :meth:`_undo_step`, the quadrature state as the pass
+        left it, ``_failure`` set): the step is not counted and run() stops."""
+        if status == ti.STEP_FOLDS:
+            self._fold_back(dt)
+        else:
+            self._undo_step()
+
+    def _undo_step(self):
+        """Back to the state before the step in progress, whose force pass failed: u = u_n (owned and
+        ghosts), v and du as kept before the step (``_kept``), no wall stop
+        pending, theta = theta_n (ufl route); u_n stays equal to u."""
+        self.u.x.array[:] = self.u_n.x.array
+        self.v.x.array[: self.n_own] = self._kept[0]
+        self.du[:] = self._kept[1]
+        self.walls.args[5][:] = 0
+        if self.theta is not None:
+            self.theta.x.array[:] = self.theta_n.x.array
 
     def initialize(self):
         """Internal force and energies at t = 0 (call after set_velocity)."""
@@ -446,14 +532,21 @@ class ExplicitDynamics(CellSteps):
             self._advance(0, 0.0)          # compiles (or loads) the chunked loop now, not inside the run
 
     def step(self, dt):
-        """One central-difference step of size dt [s] (velocity-Verlet form, see module doc)."""
+        """One central-difference step of size dt [s] (velocity-Verlet form, see module doc). A step
+        that would fold a cell is not taken: the state stays the last finite one and ``_fold`` says
+        where (:meth:`_fold_back`)."""
         self.qmap.dt[0] = dt              # the material update's time increment (Johnson-Cook rate, heating)
+        n = self.n_own
+        self._kept[0] = self.v.x.array[:n]           # v, du before the step (_undo_step)
+        self._kept[1] = self.du
         if self.has_drivers:
-            self.drivers.step(dt)
+            status = self.drivers.step(dt)
+            if status != ti.STEP_OK:
+                self._step_failed(status, dt)
+                return
             self.t += dt
             self.step_count += 1
             return
-        n = self.n_own
         v = self.v.x.array
         # half-step velocity, displacement increment (u_n keeps the previous u, ghosts included)
         w_old = ti.kick_drift(v, self.a, self.f, self.du, self.u.x.array, self.u_n.x.array, dt, n, self.mass,
@@ -462,7 +555,10 @@ class ExplicitDynamics(CellSteps):
             self.theta_n.x.array[:] = self.theta.x.array
         if self.comm.size > 1:
             self.u.x.scatter_forward()
-        self._internal_force()
+        status = self._internal_force()
+        if status != ti.STEP_OK:
+            self._step_failed(status, dt)   # back to the last finite u, v (no kick, not counted)
+            return
         # trapezoidal work of the internal forces. Constrained dofs have du = 0 (homogeneous
         # velocity BCs: fixed sliding walls), so the support reactions do no work: W_ext stays 0.
         w_new = ti.kick(v, self.a, self.f, self.free_minv, self.du, dt, n, self.mass, self.walls.args)
@@ -472,20 +568,23 @@ class ExplicitDynamics(CellSteps):
 
     def _advance(self, nsteps, dt):
         """``nsteps`` steps of size dt in one compiled call (serial fused route; same arithmetic as
-        ``nsteps`` calls of :meth:`step`)."""
+        ``nsteps`` calls of :meth:`step`, which it stops at the first failed step as :meth:`step`
+        does)."""
         self.qmap.dt[0] = dt              # the material update's time increment (Johnson-Cook rate, heating)
         if self.has_drivers:
-            done, ok = self.drivers.advance(nsteps, dt)
+            done, status = self.drivers.advance(nsteps, dt)
         else:
             work = np.array([self.W_int])
-            done, ok = ti.advance(nsteps, dt, self.v.x.array, self.a, self.free_minv, self.du,
-                                  self.n_own, self._force_args, work, self.mass, self.walls.args)
+            done, status = ti.advance(nsteps, dt, self.v.x.array, self.a, self.free_minv, self.du,
+                                      self.n_own, self._force_args, work, self.mass, self.walls.args, self._kept)
             self.W_int = float(work[0])
         for _ in range(done):
             self.t += dt
         self.step_count += done
-        if not ok and self._failure is None:
-            self._failure = f"non-finite stress or internal force at step {self.step_count}"
+        if status != ti.STEP_OK:          # the next step failed: not taken (serial)
+            if status == ti.STEP_NONFINITE and self._failure is None:
+                self._failure = f"non-finite stress or internal force at step {self.step_count + 1}"
+            self._step_failed(ti.STEP_FOLDS if status >= 0 else status, dt)
 
     # ------------------------------------------------------------------------------------------
     def state_dict(self):
@@ -685,7 +784,11 @@ class ExplicitDynamics(CellSteps):
         check (:meth:`scale_mass`; with fixed steps at the checks after each ``reestimate_every``
         steps). ``dt_floor``: the adaptive run stops with a :class:`TimeStepCollapse` (a RunError
         naming the cell, carrying the statistics and loop variables so far) when the stable step
-        falls below ``dt_floor`` times its initial value (0: never).
+        falls below ``dt_floor`` times its initial value (0: never). A step that would fold a cell
+        (a quadrature point's Jacobian <= 0: the material update has no answer there) is not taken:
+        the run stops at the last finite state with a :class:`~fenics_plast.solvers.collapse.CellFold`
+        (a TimeStepCollapse naming the cell and the remedies, with the statistics and loop variables);
+        a stress or force that is non-finite otherwise raises a RunError at once (the step not taken).
         Returns a dict of run statistics.
         """
         if not 0.0 < dt_safety <= 1.0:
@@ -768,6 +871,19 @@ class ExplicitDynamics(CellSteps):
                 # (rank-local: no collective in the message)
                 raise RunError(self._unstable_message(dt, f"step failed: {e}", dt_stable, local=True)) from None
             dt_min, dt_max = min(dt_min, dt), max(dt_max, dt)
+            if self._fold is not None:
+                # the next step would fold a cell (every rank knows): stop at the last finite state
+                e = fold_error(self, self._fold, dt_stable0, dt_floor, mass_scaling_dt,
+                               step_key=f"analysis.dt_safety, now {dt_safety:g}" if steps is None else
+                               f"more analysis.time_steps than {int(steps)}")
+                self._fold = None
+                e.stats = stats(e.dt_stable)
+                e.loop = dict(next_row=next_row, next_prog=next_prog, dt_stable=dt_stable,
+                              dt_stable0=dt_stable0, dt_min=dt_min, dt_max=dt_max)
+                raise e
+            if self._failure is not None:
+                # a non-finite stress or force (every rank knows): the step was not taken
+                raise RunError(self._unstable_message(dt, self._failure, dt_stable))
             if self.step_count % self.reestimate_every == 0:
                 if bar is not None:
                     bar.update(self.t * 1e6, step=self.step_count, dt_ns=dt * 1e9)

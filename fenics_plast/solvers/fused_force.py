@@ -17,6 +17,11 @@ compiles, so the step loops of time_integration.py serve both). Same quadrature 
 with W_q = w(X_q) |det J0(X_q)| q_w the reference quadrature weights (w = 2 pi R in
 axisymmetry) and Grad the reference gradient. Element "q1" uses theta = J (no F-bar).
 
+Pass 1 (kinematics) also checks that each living cell keeps det F > 0 (and F_hh > 0) at its points:
+a cell that folds there stops the call before the material update (:func:`folded_cell`), so that
+nothing of the state, stress or force is written and the explicit solver can stop at the last
+finite state (the material update has no answer for an inverted point: NaN before).
+
 This pass is the default route of the explicit solver (``solver.internal_force = "fused"``): the
 dolfinx route costs ~0.7 ms per explicit step on the 216-cell Taylor bar (generated kernels ~1 us
 per cell, packing and Python overhead per call); this pass costs a fraction of that. The UFL
@@ -173,7 +178,9 @@ def fbar_points(c, th, th_n, J, J_n, fbar, Fu, factor):
 def _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta):
     """Pass 1: Fu (n,3,3) at every point, F^-1 (n,5: rr, rz, zr, zz, hh), J/theta (n,), theta (nc,).
     Cells with alive[c] = 0 are eroded (frozen: :func:`_freeze_quad`); a cell that :func:`erodes` now
-    gets alive[c] = 0."""
+    gets alive[c] = 0. Returns -1, or the first living cell that is not eroded and folds: a point
+    with det F <= 0 or F_hh <= 0 (or not finite), where the material update cannot go (the pass stops
+    there: the caller writes no state)."""
     nc, nq = W.shape
     J = np.empty(nq)
     J_n = np.empty(nq)
@@ -192,12 +199,15 @@ def _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio,
         th = 0.0
         th_n = 0.0
         wsum = 0.0
+        folds = False
         for q in range(nq):
             p = c * nq + q
             frr, frz, fzr, fzz, fhh = _deformation(ue, dNdX, N, Rinv, c, q)
             grr, grz, gzr, gzz, ghh = _deformation(ue_n, dNdX, N, Rinv, c, q)
             det = frr * fzz - frz * fzr
             det_n = grr * gzz - grz * gzr
+            if not (det > 0.0 and fhh > 0.0):
+                folds = True
             J[q] = det * fhh
             J_n[q] = det_n * ghh
             # F F_n^-1 (2x2 block and hoop)
@@ -222,8 +232,59 @@ def _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio,
             alive[c] = 0
             _freeze_quad(c, nq, Fu, Finv, factor)
             continue
+        if folds:
+            return c
         theta[c] = th
         fbar_points(c, th, th_n, J, J_n, fbar, Fu, factor)
+    return -1
+
+
+@_njit
+def quad_folded_cells(u, cell_dofs, dNdX, N, Rinv, W, alive, erosion_ratio, jmin):
+    """The fold check of :func:`_kinematics` alone (no array but jmin written): returns the first
+    living, not eroding cell with a point where det F <= 0 or F_hh <= 0 (or not finite), -1 if none.
+    jmin (nc,) or (0,): each cell's smallest point Jacobian J = det F F_hh (the volume ratio there;
+    +inf for an eroded or eroding cell, -inf where not finite), when given. Arguments as
+    :func:`internal_force` (quadrilaterals)."""
+    nc, nq = W.shape
+    J = np.empty(nq)
+    ue = np.empty(8)
+    first = -1
+    for c in range(nc):
+        if jmin.shape[0]:
+            jmin[c] = np.inf
+        if not alive[c]:
+            continue
+        for a in range(4):
+            node = cell_dofs[c, a]
+            ue[2 * a] = u[2 * node]
+            ue[2 * a + 1] = u[2 * node + 1]
+        th = 0.0
+        wsum = 0.0
+        folds = False
+        lo = np.inf
+        for q in range(nq):
+            frr, frz, fzr, fzz, fhh = _deformation(ue, dNdX, N, Rinv, c, q)
+            det = frr * fzz - frz * fzr
+            J[q] = det * fhh
+            jq = J[q]
+            if not (det > 0.0 and fhh > 0.0):
+                folds = True
+                jq = -abs(jq)
+            lo = min(lo, jq) if math.isfinite(jq) else -np.inf
+            th += J[q] * W[c, q]
+            wsum += W[c, q]
+        th /= wsum
+        if erodes(J, th, erosion_ratio):
+            continue
+        if jmin.shape[0]:
+            jmin[c] = lo
+        if folds:
+            if first < 0:
+                first = c
+            if not jmin.shape[0]:
+                return first
+    return first
 
 
 @_njit
@@ -283,42 +344,88 @@ def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_rat
     entries stay 0); Finv (n,5) on quadrilaterals (rr, rz, zr, zz, hh), (n,3,3) on hexahedra, and
     factor (n,): work arrays; theta (nc,) mean dilatation out; f (gdim n_nodes,) force out [N].
     Returns True if the stress and the force are finite.
+
+    It is :func:`folded_cell` and, when no cell folds, :func:`update_and_force`: a step that would
+    fold a cell (a point Jacobian <= 0, where the material update has no answer) returns False
+    before anything of the state, the stress or the force is written (``alive`` aside: a cell eroded
+    before the folding one stays eroded), so that the caller can go back to the last finite state.
     """
-    return _passes(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
-                   yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f)
+    if _first_pass(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
+                   yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f) >= 0:
+        return False
+    return _other_passes(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
+                         yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f)
 
 
-def _passes(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp, yield_tol,
-            regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
-    """The three passes of :func:`internal_force` (compiled: see the overload below)."""
+@_njit
+def folded_cell(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
+                yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
+    """The first part of :func:`internal_force` (same arguments): -1, or the first owned cell that
+    folds at u (a living cell, not eroded now, with a point where det F <= 0 or, in axisymmetry,
+    F_hh <= 0, or not finite). It is pass 1 over all cells (Fu, F^-1, factor, theta, erosion), which
+    stops at that cell: no state, stress or force is written. Call :func:`update_and_force` next
+    when it returns -1 (the MPI step: all ranks agree in between)."""
+    return _first_pass(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
+                       yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f)
+
+
+@_njit
+def update_and_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
+                     yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
+    """The rest of :func:`internal_force` after :func:`folded_cell` returned -1 (same arguments):
+    material update and commit, nodal force. Returns True if the stress and the force are finite."""
+    return _other_passes(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
+                         yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f)
+
+
+def _first_pass(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
+                yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
+    """:func:`folded_cell` (compiled: see the overload below)."""
     raise NotImplementedError("compiled code only")
 
 
-@overload(_passes)
-def _passes_impl(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
-                 yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
-    """Hexahedra of one material: block by block of cells
-    (:func:`fenics_plast.solvers.fused_force_hex.hex_passes_blocked`, the same numbers; 3-D arrays are
-    large); otherwise each pass over all cells."""
+def _other_passes(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
+                  yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
+    """:func:`update_and_force` (compiled: see the overload below)."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(_first_pass)
+def _first_pass_impl(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
+                     yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
+    def pass1(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
+              yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
+        return _cell_kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor,
+                                theta)
+    return pass1
+
+
+@overload(_other_passes)
+def _other_passes_impl(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
+                       yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
+    """Hexahedra of one material: the material update and the force block by block of cells
+    (:func:`fenics_plast.solvers.fused_force_hex.hex_update_force_blocked`, the same numbers; 3-D
+    arrays are large); otherwise each pass over all cells (numba types, at compile time)."""
     if Finv.ndim == 3 and isinstance(regions, types.NoneType):
-        from fenics_plast.solvers.fused_force_hex import hex_passes_blocked
+        from fenics_plast.solvers.fused_force_hex import hex_update_force_blocked
 
         def blocked(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
                     yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
-            return hex_passes_blocked(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, model, lmbda, mu, law,
-                                      hp, yield_tol, binv, eqps, temp, dt[0], tau, Fu, Finv, factor, theta, f)
+            return hex_update_force_blocked(cell_dofs, dNdX, W, model, lmbda, mu, law, hp, yield_tol, binv, eqps,
+                                            temp, dt[0], tau, Fu, Finv, factor, f)
         return blocked
 
     def whole(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp, yield_tol,
               regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
-        _cell_kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta)
+        # pass 1 (Fu, F^-1, factor, theta) ran in _first_pass
         _material_update(regions, model, lmbda, mu, law, hp, yield_tol, Fu, binv, eqps, temp, dt[0], tau)
         return _nodal_force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f)
     return whole
 
 
 def _cell_kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta):
-    """Pass 1 of the cells' kind (compiled: see the overload below)."""
+    """Pass 1 of the cells' kind (compiled: see the overload below); returns -1 or the first folding
+    cell."""
     raise NotImplementedError("compiled code only")
 
 
@@ -335,11 +442,11 @@ def _cell_kinematics_impl(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, eros
         from fenics_plast.solvers.fused_force_hex import hex_kinematics
 
         def hexahedra(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta):
-            hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta)
+            return hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta)
         return hexahedra
 
     def quadrilaterals(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta):
-        _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta)
+        return _kinematics(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta)
     return quadrilaterals
 
 

@@ -125,6 +125,8 @@ def hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, Fu, F
     cell_dofs (nc, 8) node indices (basix order); fbar: Q1/P0 F-bar (False: theta = J, factor 1);
     alive (nc,) uint8: 0 = eroded (frozen, :func:`_freeze_hex`); a cell that
     :func:`~fenics_plast.solvers.fused_force.erodes` (erosion_ratio) now gets alive[c] = 0.
+    Returns -1, or the first living cell, not eroded now, with a point where det F <= 0 (or not
+    finite): it folds, and the pass stops there (the caller writes no state).
     """
     nc, nq = W.shape
     J = np.empty(nq)
@@ -147,6 +149,7 @@ def hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, Fu, F
         th = 0.0
         th_n = 0.0
         wsum = 0.0
+        folds = False
         for q in range(nq):
             p = c * nq + q
             for i in range(3):
@@ -164,6 +167,8 @@ def hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, Fu, F
                 G[i, i] += 1.0
             det = _adjugate(F, adjF)            # F^-1 = adj F / det F
             det_n = _adjugate(G, adjG)
+            if not det > 0.0:
+                folds = True
             J[q] = det
             J_n[q] = det_n
             ir = 1.0 / det
@@ -181,8 +186,68 @@ def hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, Fu, F
             alive[c] = 0
             _freeze_hex(c, nq, Fu, Finv, factor)
             continue
+        if folds:
+            return c
         theta[c] = th
         fbar_points(c, th, th_n, J, J_n, fbar, Fu, factor)
+    return -1
+
+
+@_njit
+def hex_folded_cells(u, cell_dofs, dNdX, W, alive, erosion_ratio, jmin):
+    """The fold check of :func:`hex_kinematics` alone (nothing but jmin written; the explicit solver's
+    diagnosis of a fold and the ufl route's check): the first living cell, not eroding, with a point
+    where det F <= 0 (or not finite), -1 if none. jmin (nc,) or
+    (0,): each cell's smallest point Jacobian det F (+inf for an eroded or eroding cell, -inf where
+    not finite), when given. Arguments as :func:`hex_kinematics`."""
+    nc, nq = W.shape
+    J = np.empty(nq)
+    ue = np.empty((8, 3))
+    F = np.empty((3, 3))
+    adjF = np.empty((3, 3))
+    first = -1
+    for c in range(nc):
+        if jmin.shape[0]:
+            jmin[c] = np.inf
+        if not alive[c]:
+            continue
+        for a in range(8):
+            node = cell_dofs[c, a]
+            for i in range(3):
+                ue[a, i] = u[3 * node + i]
+        th = 0.0
+        wsum = 0.0
+        folds = False
+        lo = np.inf
+        for q in range(nq):
+            for i in range(3):
+                for j in range(3):
+                    F[i, j] = 0.0
+            for a in range(8):
+                for j in range(3):
+                    g = dNdX[c, q, a, j]
+                    for i in range(3):
+                        F[i, j] += ue[a, i] * g
+            for i in range(3):
+                F[i, i] += 1.0
+            det = _adjugate(F, adjF)
+            if not det > 0.0:
+                folds = True
+            J[q] = det
+            lo = min(lo, det) if math.isfinite(det) else -np.inf
+            th += det * W[c, q]
+            wsum += W[c, q]
+        th /= wsum
+        if erodes(J, th, erosion_ratio):
+            continue
+        if jmin.shape[0]:
+            jmin[c] = lo
+        if folds:
+            if first < 0:
+                first = c
+            if not jmin.shape[0]:
+                return first
+    return first
 
 
 @_njit
@@ -203,20 +268,21 @@ def _finite(f):
     return math.isfinite(total)
 
 
-#: cells per block of :func:`hex_passes_blocked`: the block's points' Fu, F^-1, tau and b_e^-1 and its
-#: cells' gradients (about 120 kB) stay in the core's cache between the three passes
+#: cells per block of :func:`hex_update_force_blocked`: the block's points' tau, b_e^-1, F^-1 and its
+#: cells' gradients stay in the core's cache between the material update and the force
 CELLS_PER_BLOCK = 32
 
 
 @_njit
-def hex_passes_blocked(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp, yield_tol,
-                       binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
-    """The three passes (kinematics, material update and commit, nodal force) block by block of
-    :data:`CELLS_PER_BLOCK` cells, one material (arguments as ``fused_force.internal_force``; temp
-    (n,) or a dummy (1,) array). Each cell's arithmetic and the order in which the cells add to f
-    are those of the three passes over all cells, so the result is the same to the bit; the
-    block's work arrays are read again while still in cache (the whole-mesh passes stream them
-    through memory three times, which two ranks on two cores share). Returns False if f is not finite."""
+def hex_update_force_blocked(cell_dofs, dNdX, W, model, lmbda, mu, law, hp, yield_tol, binv, eqps, temp, dt, tau,
+                             Fu, Finv, factor, f):
+    """Passes 2 and 3 (material update and commit, nodal force) block by block of
+    :data:`CELLS_PER_BLOCK` cells, one material, after pass 1 (:func:`hex_kinematics`) over all
+    cells (arguments as ``fused_force.internal_force``; temp (n,) or a dummy (1,) array). Each
+    cell's arithmetic and the order in which the cells add to f are those of the passes over all
+    cells, so the result is the same to the bit; the block's stress and state are read again by the
+    force pass while still in cache (two ranks on two cores share the memory bandwidth). Returns
+    False if f is not finite."""
     nc, nq = W.shape
     no_tangent = np.empty((1, 3, 3, 3, 3))
     per_point_temp = temp.shape[0] == binv.shape[0]
@@ -224,8 +290,6 @@ def hex_passes_blocked(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, m
     for c0 in range(0, nc, CELLS_PER_BLOCK):
         c1 = min(c0 + CELLS_PER_BLOCK, nc)
         p0, p1 = c0 * nq, c1 * nq
-        hex_kinematics(u, u_n, cell_dofs[c0:c1], dNdX[c0:c1], W[c0:c1], fbar, alive[c0:c1], erosion_ratio,
-                       Fu[p0:p1], Finv[p0:p1], factor[p0:p1], theta[c0:c1])
         T = temp[p0:p1] if per_point_temp else temp
         kernels.update_points(model, Fu[p0:p1], binv[p0:p1], eqps[p0:p1], T, lmbda, mu, law, hp, yield_tol, dt,
                               tau[p0:p1], binv[p0:p1], eqps[p0:p1], T, no_tangent, False)

@@ -120,7 +120,8 @@ class StaticSolver:
         self.increments = []    # dicts per converged increment
         self.norms = []         # residual norms of the current solve
         self.total_iterations = 0
-        self.cutbacks = []      # failed attempts (load_factor, step, iterations, reason)
+        self.cutbacks = []      # failed attempts followed by a halved step (load_factor, step, iterations, reason)
+        self.linesearch_retries = []    # failed attempts retried at the same step with the other line search
         self.total_iterations_failed = 0
         self.mumps_workspace_raises = []    # (load_factor, infog1, icntl14) per ICNTL(14) raise
 
@@ -392,19 +393,27 @@ class StaticSolver:
         for bc, g, X, value in self._prescribed:
             g.x.array[:] = np.asarray(value(X, self.lam), dtype=float) * np.ones(X.shape[1])
 
-    def solve_increment(self, lam, lam_prev_step=None):
-        """Newton solve at load factor lam from the last converged state. Returns (ok, its, reason)."""
+    def solve_increment(self, lam, lam_prev_step=None, tangent_predictor=False):
+        """Newton solve at load factor lam from the last converged state. Returns (ok, its, reason).
+
+        Predictor: with ``lam_prev_step`` (the last converged increment), linear extrapolation of that
+        increment, then the Dirichlet values at lam on their nodes. ``tangent_predictor``: no
+        extrapolation, and the Dirichlet values stay at their converged values, so that Newton's first
+        correction imposes their increment through the consistent tangent, which spreads it over the
+        body (the first increment of a load step: imposing a large increment on the boundary nodes
+        alone can invert the cells next to them). Otherwise: the converged state with the Dirichlet
+        values at lam."""
         if not self._setup_done:
             self.setup()
         lam_n = self.lam_converged
         self.set_load(lam)
-        # predictor: linear extrapolation of the last converged increment, then BC values
         self.w.x.array[:] = self.w_n.x.array
-        if lam_prev_step and lam_prev_step > 0:
+        if lam_prev_step and lam_prev_step > 0 and not tangent_predictor:
             s = (lam - lam_n) / lam_prev_step
             self.w.x.array[:] += s * (self.w_n.x.array - self.w_nm1.x.array)
         dc.petsc_vec(self.w).copy(self.x)
-        fpetsc.set_bc(self.x, self.bcs)
+        if not tangent_predictor:
+            fpetsc.set_bc(self.x, self.bcs)
         self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         self.norms = []
         self._bad_update = False
@@ -528,7 +537,8 @@ class StaticSolver:
                  lam_converged=self.lam_converged, force_scale=self.force_scale,
                  roundoff_floor=self.roundoff_floor, total_iterations=self.total_iterations,
                  total_iterations_failed=self.total_iterations_failed, increments=self.increments,
-                 cutbacks=self.cutbacks, mumps_workspace_raises=getattr(self, "mumps_workspace_raises", []),
+                 cutbacks=self.cutbacks, linesearch_retries=self.linesearch_retries,
+                 mumps_workspace_raises=getattr(self, "mumps_workspace_raises", []),
                  mumps_icntl_14=icntl)
         if self.qmap.thermal:
             d.update(temperature=Keyed(self.qmap.temperature, kq))      # Johnson-Cook [K]
@@ -573,6 +583,7 @@ class StaticSolver:
         self.total_iterations_failed = int(d.get("total_iterations_failed", 0))
         self.increments = list(d["increments"])
         self.cutbacks = list(d["cutbacks"])
+        self.linesearch_retries = list(d.get("linesearch_retries", []))
         if hasattr(self, "mumps_workspace_raises"):
             self.mumps_workspace_raises = list(d.get("mumps_workspace_raises", []))
         icntl = int(d.get("mumps_icntl_14", 100))
@@ -600,6 +611,9 @@ class StaticSolver:
         prev_step = None
         if resume is not None and resume.get("lam_end") == lam_end:
             dl, prev_step = resume["dl"], resume["prev_step"]
+        # a new load step from a loaded state: its first increment takes the tangent predictor
+        # (solve_increment), the later ones extrapolate the step's own increments
+        tangent = prev_step is None and self.lam_converged > 0.0
         if self.progress is not None:
             self.progress.update(self.lam_converged, inc=len(self.increments), newton=0,
                                  newton_total=self.total_iterations, cutbacks=len(self.cutbacks))
@@ -607,20 +621,20 @@ class StaticSolver:
             dl = min(dl, max_increment, lam_end - self.lam_converged)
             lam = self.lam_converged + dl
             t0 = time.perf_counter()
-            ok, its, why = self.solve_increment(lam, prev_step)
+            ok, its, why = self.solve_increment(lam, prev_step, tangent)
             while not ok and self._raise_mumps_workspace():   # same step with more MUMPS workspace
-                ok, its, why = self.solve_increment(lam, prev_step)
+                ok, its, why = self.solve_increment(lam, prev_step, tangent)
             if not ok:
                 # the elastic/plastic switch makes the residual non-smooth: a damped line search
                 # can stall where full Newton steps go through, and full steps can overshoot where
                 # backtracking helps. Retry the same step once with the other kind.
                 other = "bt" if self.options["linesearch"] == "basic" else "basic"
                 self.log(f"  retry at load {lam:.6g} with line search {other} ({why})")
-                self.cutbacks.append(dict(load_factor=lam, step=dl, iterations=its, reason=why,
-                                          retry=other))
+                self.linesearch_retries.append(dict(load_factor=lam, step=dl, iterations=its, reason=why,
+                                                    retry=other))
                 self._set_linesearch(other)
                 try:
-                    ok, its, why = self.solve_increment(lam, prev_step)
+                    ok, its, why = self.solve_increment(lam, prev_step, tangent)
                 finally:
                     self._set_linesearch(self.options["linesearch"])
             dt = time.perf_counter() - t0
@@ -635,7 +649,7 @@ class StaticSolver:
                 if self.progress is not None:
                     self.progress.update(lam, inc=rec["increment"], newton=its,
                                          newton_total=self.total_iterations, cutbacks=len(self.cutbacks))
-                prev_step = dl
+                prev_step, tangent = dl, False
                 if callback is not None and callback(self):
                     return False
                 if its <= fast_iterations:

@@ -52,6 +52,11 @@ serve runs with prescribed motion, loads or contact. ``advance*`` run several st
 run in one compiled call; the per-step data that depend on Python callables (prescribed values,
 load factors, tool translations) are evaluated beforehand by :meth:`Drivers.step_data` for the
 step times t_k (computed by repeated addition exactly as the step-by-step path does).
+
+A step whose force pass fails (a cell that folds: :func:`fused_force.folded_cell`, before anything
+is written; or a stress or force that is not finite) ends the loop before its loads, contact and
+kick: it is not counted, and the solver goes back to the state before it (u = u_n, v and du as
+kept before the step), see :data:`STEP_OK` and ``ExplicitDynamics._step_failed``.
 """
 from __future__ import annotations
 
@@ -59,7 +64,7 @@ import numba
 import numpy as np
 from mpi4py import MPI
 
-from fenics_plast.solvers.fused_force import internal_force
+from fenics_plast.solvers.fused_force import folded_cell, update_and_force
 
 _njit = numba.njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
 _NONE = np.zeros(0)             # "no load vector" for the walls' kernels called by the plain kernels
@@ -302,26 +307,43 @@ def kick(v, a, f, free_minv, du, dt, n, mass, walls):
     return w
 
 
+#: status of a step (:func:`advance`, :func:`advance_general`, ``ExplicitDynamics``): every step finite
+STEP_OK = -1
+#: status: the stress or force of the step is not finite (the quadrature state holds its update)
+STEP_NONFINITE = -2
+#: status (``ExplicitDynamics._internal_force``, :meth:`Drivers.step`): a cell folds, on some rank
+STEP_FOLDS = -3
+
+
 @_njit
-def advance(nsteps, dt, v, a, free_minv, du, n, force_args, work, mass, walls):
+def advance(nsteps, dt, v, a, free_minv, du, n, force_args, work, mass, walls, kept):
     """``nsteps`` central-difference steps of size dt in one call (serial runs, fused force).
 
     force_args : the arguments of :func:`fused_force.internal_force` (u and u_n first, f last),
     whose arrays are updated in place; mass, walls: as :func:`stop_at_walls`.
     work : (1,) internal work [N mm], incremented step by step
     exactly as :meth:`ExplicitDynamics.step` does (so the result does not depend on how steps are
-    grouped). Returns (steps done, finite): stops after the first step whose stress or force is
-    not finite.
+    grouped). kept (2, n): v and du (owned entries) before the step in progress, what the solver's
+    ``_undo_step`` needs, with u_n, to go back to the last finite state.
+    Returns (steps done, status): status :data:`STEP_OK`; or the owned cell that the next step
+    folds (>= 0: :func:`fused_force.folded_cell`; that step wrote no state, stress or force, and
+    u_n, kept restore its u, v, du); or :data:`STEP_NONFINITE` (the next step's stress or force is
+    not finite: its material update is committed). The failed step is not among the steps done
+    and its kick is not taken.
     """
     u, u_n, f = force_args[0], force_args[1], force_args[-1]
     for k in range(nsteps):
+        kept[0, :n] = v[:n]             # (slices: a call here slowed the 3-D loop by 10 %)
+        kept[1, :n] = du[:n]
         w_old = kick_drift(v, a, f, du, u, u_n, dt, n, mass, walls)
-        ok = internal_force(*force_args)
+        bad = folded_cell(*force_args)
+        if bad >= 0:
+            return k, bad
+        if not update_and_force(*force_args):
+            return k, STEP_NONFINITE
         w_new = kick(v, a, f, free_minv, du, dt, n, mass, walls)
         work[0] += 0.5 * (w_old + w_new)
-        if not ok:
-            return k + 1, False
-    return nsteps, True
+    return nsteps, STEP_OK
 
 
 # ----------------------------------------------------------------------------------------------
@@ -629,23 +651,31 @@ def contact_forces_3d(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t
 
 @_njit
 def advance_general(nsteps, dt, v, a, free_minv, mass, du, n, force_args, fload, fload_rows,
-                    pdofs, pkind, pset, pvals, pv_old, r_old, reac, wset, fcon, contact_args, trans, work, walls):
+                    pdofs, pkind, pset, pvals, pv_old, r_old, reac, wset, fcon, contact_args, trans, work, walls,
+                    kept):
     """``nsteps`` steps of a serial, fused-force run with prescribed motion, loads and contact (the
     same kernels, in the same order, as the step-by-step path of ExplicitDynamics).
 
     fload_rows (nsteps, n) or (nsteps, 0): the load vector at the step ends (none: fload stays);
     pvals (nsteps, np, 2) the prescribed values of each step; contact_args: the arguments of
     :func:`contact_forces` from X to pen; trans (nsteps + 1, npairs, 2) the tool translations at
-    the step times. work (2,) += internal work, load work [N mm]; walls: as :func:`stop_at_walls`.
-    Returns (steps done, finite).
+    the step times. work (2,) += internal work, load work [N mm]; walls: as :func:`stop_at_walls`;
+    kept (2, n): as :func:`advance`. Returns (steps done, status) as :func:`advance` (a failed step
+    stops before its loads, contact and kick).
     """
     u, u_n, f = force_args[0], force_args[1], force_args[-1]
     has_load = fload_rows.shape[1] > 0
     has_contact = contact_args[0].shape[0] > 0
     for k in range(nsteps):
+        kept[0, :n] = v[:n]
+        kept[1, :n] = du[:n]
         wi0, wl0 = drift_general(v, a, f, fload, fcon, mass, du, u, u_n, dt, n, pdofs, pkind, pvals[k],
                                  pv_old, r_old, walls)
-        ok = internal_force(*force_args)
+        bad = folded_cell(*force_args)
+        if bad >= 0:
+            return k, bad
+        if not update_and_force(*force_args):
+            return k, STEP_NONFINITE
         if has_load:
             fload[:] = fload_rows[k]
         if has_contact:
@@ -654,9 +684,7 @@ def advance_general(nsteps, dt, v, a, free_minv, mass, du, n, force_args, fload,
                                 r_old, reac, wset, walls)
         work[0] += 0.5 * (wi0 + wi1)
         work[1] += 0.5 * (wl0 + wl1)
-        if not ok:
-            return k + 1, False
-    return nsteps, True
+    return nsteps, STEP_OK
 
 
 # ----------------------------------------------------------------------------------------------
@@ -858,7 +886,9 @@ class Drivers:
 
     def step(self, dt):
         """One step of the solver (the kernels of :func:`advance_general`, with the internal force of
-        either route and, under MPI, the ghost update of u)."""
+        either route and, under MPI, the ghost update of u). Returns the status of the solver's force
+        pass (``ExplicitDynamics._internal_force``, the same on every rank): a failed step stops
+        before its loads, contact and kick, and the solver undoes its drift."""
         s, n = self.s, self.n
         d = self.step_data(s.t, dt, 1)
         v, u = s.v.x.array, s.u.x.array
@@ -868,7 +898,9 @@ class Drivers:
             s.theta_n.x.array[:] = s.theta.x.array
         if s.comm.size > 1:
             s.u.x.scatter_forward()
-        s._internal_force()
+        status = s._internal_force()
+        if status != STEP_OK:
+            return status               # the solver goes back (before loads, contact, kick)
         if self.loads:
             self.fload[:] = d.fload_rows[0]
         if s.contact.pairs:
@@ -878,17 +910,18 @@ class Drivers:
                                 s.walls.args)
         s.W_int += 0.5 * (wi0 + wi1)
         self.W_load += 0.5 * (wl0 + wl1)
+        return STEP_OK
 
     def advance(self, nsteps, dt):
         """``nsteps`` steps in one compiled call (serial, fused force, compiled gaps). Returns
-        (steps done, finite)."""
+        (steps done, status) (:func:`advance_general`)."""
         s = self.s
         d = self.step_data(s.t, dt, nsteps)
         work = np.array([s.W_int, self.W_load])
         out = advance_general(nsteps, dt, s.v.x.array, s.a, s.free_minv, s.mass, s.du, self.n, s._force_args,
                               self.fload, d.fload_rows, self.pdofs, self.pkind, self.pset, d.pvals, self.pv_old,
                               self.r_old, self.reac, self.wset, self.fcon, s.contact.args(), d.trans, work,
-                              s.walls.args)
+                              s.walls.args, s._kept)
         s.W_int, self.W_load = float(work[0]), float(work[1])
         return out
 

@@ -18,7 +18,7 @@ from .plan import StudyError, Vary, parse_vary
 
 
 def study_command(scene: str, varies: Sequence[Vary], sets: Sequence[str], out: str | None, np_ranks: int,
-                  results: str | None = None) -> str:
+                  results: str | None = None, trust_mesh_script: bool = False) -> str:
     """The ``fenics-plast study`` command line of a study (quoted for a shell)."""
     parts = ["fenics-plast", "study", scene]
     for v in varies:
@@ -31,6 +31,8 @@ def study_command(scene: str, varies: Sequence[Vary], sets: Sequence[str], out: 
         parts += ["--np", str(np_ranks)]
     if out:
         parts += ["--out", out]
+    if trust_mesh_script:
+        parts += ["--trust-mesh-script"]
     return " ".join(shlex.quote(p) for p in parts)
 
 
@@ -52,6 +54,9 @@ def add_study_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     p.add_argument("--keep-outputs", action="store_true",
                    help="keep each run's fields.xdmf and plots (off by default: output.xdmf=false, "
                         "output.plots=false)")
+    p.add_argument("--trust-mesh-script", action="store_true",
+                   help="passed to every run: let the scene's Gmsh .geo run any command it contains (see "
+                        "`fenics-plast run --help`)")
     return p
 
 
@@ -70,9 +75,11 @@ def study_from_args(args) -> int:
                 raise StudyError(str(e)) from None
             out = str(Path("results") / f"study_{name}")
         results = [s.strip() for s in args.results.split(",") if s.strip()] if args.results else None
-        cmd = study_command(args.scene, varies, args.set, out, args.np, args.results)
+        trust = getattr(args, "trust_mesh_script", False)
+        cmd = study_command(args.scene, varies, args.set, out, args.np, args.results, trust_mesh_script=trust)
         study = run_study(args.scene, varies, out, args.set, results=results, np_ranks=args.np,
-                          timeout=args.timeout, reuse=args.reuse, keep_outputs=args.keep_outputs, command=cmd)
+                          timeout=args.timeout, reuse=args.reuse, keep_outputs=args.keep_outputs, command=cmd,
+                          trust_mesh_script=trust)
     except StudyError as e:
         print(f"error: {e}", file=sys.stderr, flush=True)
         return 2

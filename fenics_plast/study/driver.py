@@ -53,11 +53,12 @@ def _take_declared(study: Study, results: Sequence[str] | None, log: Callable[[s
 def run_study(scene: str | Path, varies: Sequence[Vary], out: str | Path, sets: Iterable[str] = (),
               results: Sequence[str] | None = None, np_ranks: int = 1, timeout: float | None = None,
               reuse: bool = False, keep_outputs: bool = False, command: str | None = None,
-              log: Callable[[str], None] = print) -> Study:
+              log: Callable[[str], None] = print, trust_mesh_script: bool = False) -> Study:
     """Run the study and write study.csv, study.md and study.png into ``out``. Raises StudyError
     (bad arguments: nothing run) when the scene or the fixed overrides are invalid.
 
-    ``results``: the summary keys to compare (default: the runs' declared ``key_results``)."""
+    ``results``: the summary keys to compare (default: the runs' declared ``key_results``);
+    ``trust_mesh_script``: each run gets ``--trust-mesh-script``."""
     from ..problem import SceneError, load_problem
 
     scene = Path(scene).resolve()
@@ -83,7 +84,7 @@ def run_study(scene: str | Path, varies: Sequence[Vary], out: str | Path, sets: 
         else:
             log(f"study: run {i + 1}/{len(combos)} {run.label} ...")
             execute(run, scene, run_sets, out / "runs" / run.name, np_ranks=np_ranks, timeout=timeout,
-                    reuse=reuse)
+                    reuse=reuse, trust_mesh_script=trust_mesh_script)
         t = run.value("wall_time_s")
         log(f"study: run {i + 1}/{len(combos)} {run.label}: {run.status}"
             + (" (reused)" if run.reused else "")

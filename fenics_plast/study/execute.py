@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
+from ..output import mark_results_folder
+
 
 @dataclass
 class Run:
@@ -60,9 +62,11 @@ def _error_line(output: str) -> str | None:
 
 
 def run_command(scene: Path, sets: Sequence[str], out_dir: Path, np_ranks: int = 1,
-                python: str = sys.executable) -> list[str]:
+                python: str = sys.executable, trust_mesh_script: bool = False) -> list[str]:
     """The command line of one run (a list for subprocess)."""
     cmd = [python, "-m", "fenics_plast.cli", "run", str(scene), "--out", str(out_dir)]
+    if trust_mesh_script:
+        cmd.append("--trust-mesh-script")
     for s in sets:
         cmd += ["--set", s]
     if np_ranks > 1:
@@ -75,26 +79,27 @@ def run_command(scene: Path, sets: Sequence[str], out_dir: Path, np_ranks: int =
 
 
 def execute(run: Run, scene: Path, sets: list[str], run_dir: Path, np_ranks: int = 1,
-            timeout: float | None = None, reuse: bool = False) -> Run:
+            timeout: float | None = None, reuse: bool = False, trust_mesh_script: bool = False) -> Run:
     """Run one combination as a subprocess (or reuse a finished one) and fill ``run``.
 
     ``run_dir`` gets run.log (the process's output), summary.json (written by the run) and
     study_run.json (the command, exit status and times: what ``reuse`` reads back)."""
     record_path = run_dir / "study_run.json"
-    cmd = run_command(scene, sets, run_dir, np_ranks)
+    cmd = run_command(scene, sets, run_dir, np_ranks, trust_mesh_script=trust_mesh_script)
     if reuse and record_path.is_file():
         try:
             rec = json.loads(record_path.read_text())
         except (OSError, json.JSONDecodeError):
             rec = None
         if rec and rec.get("sets") == sets and rec.get("np") == np_ranks and rec.get("status") in (
-                "ok", "failed"):
+                "ok", "failed", "invalid"):         # invalid: refused by the run itself (exit 2, e.g. its time step)
             _fill(run, rec["returncode"], rec.get("output_tail", ""), rec.get("process_time_s"), run_dir)
             run.reused = True
             return run
     if run_dir.exists():
         shutil.rmtree(run_dir)
     run_dir.mkdir(parents=True)
+    mark_results_folder(run_dir, None)      # the run's folder (run.log goes in first): a results folder
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     t0 = time.perf_counter()
     with open(run_dir / "run.log", "w", encoding="utf-8") as log:
