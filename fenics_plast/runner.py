@@ -331,10 +331,16 @@ def penetration_report(name, penetration, depth, penalty, default_penalty, comm)
     ratio = penetration / depth if depth > 0 else 0.0
     out = {f"{name}_penetration_per_cell_depth": ratio, "warnings": []}
     if ratio > PENETRATION_WARNING:
+        if penalty < default_penalty:
+            cause = (f"the penalty {penalty:.3g} N/mm^3 is too soft for this load (this pair's default is "
+                     f"{default_penalty:.3g} N/mm^3)")
+        else:
+            cause = (f"the penalty {penalty:.3g} N/mm^3 ({penalty / default_penalty:.3g} times this pair's default) "
+                     f"is still too soft for this load: a stiffer one (explicit: a shorter stable step) or finer "
+                     f"cells along the group lower it")
         msg = (f"contact.{name}: the largest penetration, {penetration:.3g} mm, is {100 * ratio:.3g} % of the "
                f"depth of the cells along its group ({depth:.3g} mm; more than {100 * PENETRATION_WARNING:g} %): "
-               f"the penalty {penalty:.3g} N/mm^3 is too soft for this load (this pair's default is "
-               f"{default_penalty:.3g} N/mm^3); its forces and the shape near it cannot be trusted")
+               f"{cause}; its forces and the shape near it cannot be trusted to better than that")
         warn(comm, msg)
         out["warnings"].append(msg)
     return out
