@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import logging
 import os
 import sys
 import time
@@ -460,7 +461,22 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _library_warnings_only() -> None:
+    """Let libraries' log records reach stderr from WARNING up, nothing below.
+
+    FFCx calls ``logging.basicConfig()`` when imported, and on a cold cache its compiler builds each
+    form through setuptools, whose distutils logger (Debian 12) logs every gcc call at INFO on the
+    root logger: the user would see "INFO:root:running build_ext" before our own messages. Raising
+    the root handlers' own levels keeps those build notes out whatever level a library sets."""
+    root = logging.getLogger()
+    if not root.handlers:
+        root.addHandler(logging.StreamHandler(sys.stderr))
+    for handler in root.handlers:
+        handler.setLevel(max(handler.level, logging.WARNING))
+
+
 def main(argv: list[str] | None = None) -> int:
+    _library_warnings_only()
     args = build_parser().parse_args(argv)
     return args.func(args)
 

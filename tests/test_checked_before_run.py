@@ -236,6 +236,22 @@ def test_wall_through_the_body(tmp_path):
             "boundary.floor.position=5.0")
 
 
+def test_cold_compiler_cache_prints_nothing_before_the_error(tmp_path):
+    """On a fresh machine FFCx compiles every form; through setuptools (Debian 12) each gcc call was
+    logged as "INFO:root:..." on stderr ahead of the error (found by the fresh-root check). With an
+    empty compiler cache, stderr is the error message alone."""
+    before = sorted(os.listdir(tmp_path))
+    cache = tmp_path.parent / f"{tmp_path.name}_cache"
+    cmd = FP + ["run", str(WALL), "--out", str(tmp_path / "out"), "--set", "boundary.floor.position=5.0"]
+    p = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path, timeout=300,
+                       env=dict(os.environ, FENICS_PLAST_PROGRESS="off", XDG_CACHE_HOME=str(cache)))
+    assert p.returncode == 2, p.stderr
+    assert any((cache / "fenics").iterdir()), "the compiler cache was not cold: nothing was compiled"
+    assert p.stderr.startswith(f"error: {WALL}: boundary.floor: the body lies on both sides"), p.stderr
+    assert p.stderr.count("\n") == 1, p.stderr
+    assert sorted(os.listdir(tmp_path)) == before
+
+
 @pytest.mark.parametrize("sets, key", [
     (['outputs.r.quantity="reaction"', 'outputs.r.group="axis"', 'outputs.r.component="r"'],
      "outputs.r.quantity = 'reaction' is for static analyses"),
