@@ -37,7 +37,7 @@ keys: install
 	$(PY) -m fenics_plast.keys_doc
 
 # The README's two commands on a new minimal Debian root (debootstrap + chroot, the Dockerfile's steps),
-# Debian 12 bookworm and Debian 13 trixie one after the other, or one of them; needs root. Times: see
+# Debian 12 bookworm and Debian 13 trixie at the same time, or one of them; needs root. Times: see
 # the README ("Set-up and run").
 fresh-check:
 	bash scripts/fresh_root_check.sh
