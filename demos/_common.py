@@ -23,9 +23,6 @@ from mpi4py import MPI                  # noqa: E402
 COMM = MPI.COMM_WORLD
 COARSE_ENV = "FENICS_PLAST_DEMO_COARSE"
 
-# basix numbers the vertices of a quadrilateral (0,0) (1,0) (0,1) (1,1): this is the cyclic order
-QUAD_CYCLE = [0, 1, 3, 2]
-
 
 def options(name: str, doc: str, argv=None, extra=()):
     """Parse --coarse / --out (unknown arguments, e.g. a Jupyter kernel's, are ignored).
@@ -73,6 +70,7 @@ def gather_cells(V, u_values, cell_values):
     n_cells = V.mesh.topology.index_map(2).size_local
     x = V.tabulate_dof_coordinates()[:, :2] + np.asarray(u_values).reshape(-1, 2)
     from fenics_plast import dolfinx_compat as dc
+    from fenics_plast.solvers.quad_step import QUAD_CYCLE      # basix's vertices in cyclic order
     cells = dc.cell_dofs(V)[:n_cells][:, QUAD_CYCLE]
     parts = COMM.gather((x[cells], np.asarray(cell_values)[:n_cells]), root=0)
     if COMM.rank != 0:

@@ -52,7 +52,7 @@ from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Hardening, Material
 from fenics_plast.meshing import mesh_from_file
 from fenics_plast.problem import load_problem
-from fenics_plast.runner import tool_of
+from fenics_plast.build import tool_of
 from fenics_plast.solvers.static import StaticSolver
 
 args = options("punch_stretching", "Hemispherical punch stretching (contact and friction)",

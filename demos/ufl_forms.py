@@ -41,12 +41,13 @@ from dolfinx.fem import petsc as fpetsc
 from mpi4py import MPI
 
 from fenics_plast import dolfinx_compat as dc      # the calls that differ between dolfinx 0.5 and 0.9
-from fenics_plast.contact import FlatWall, PenaltyContact
+from fenics_plast.contact import PenaltyContact
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Hardening, Material
 from fenics_plast.material.point import uniaxial_stress
 from fenics_plast.quadrature import QuadratureMap
 from fenics_plast.solvers.static import StaticSolver
+from fenics_plast.tools import Plane, piecewise_path
 
 comm = MPI.COMM_WORLD
 r1, r2, height = 1.0, 2.0, 1.0          # a ring section: r in [1, 2] mm, z in [0, 1] mm
@@ -231,7 +232,8 @@ solver = StaticSolver(kin, Material(1000.0, 0.3), verbose=False)
 facets = dm.locate_entities_boundary(mesh, 1, lambda x: np.isclose(x[1], 0.0))
 bottom_tags = dm.meshtags(mesh, 1, np.sort(facets).astype(np.int32), np.full(len(facets), 1, np.int32))
 contact = PenaltyContact(solver, eps, friction=mu, law="quasi-coulomb")
-wall = FlatWall(point=(0.0, 0.0), normal=(0.0, 1.0), path=[(0.0, 0.0, 0.0), (0.5, 0.0, delta), (1.0, slide, delta)])
+wall = Plane(point=(0.0, 0.0), normal=(0.0, 1.0),       # path: load factors, then dx and dy at each [mm]
+             path=piecewise_path([0.0, 0.5, 1.0], [0.0, 0.0, slide], [0.0, delta, delta]))
 pair = contact.add_tool(wall, bottom_tags, 1)
 print("gap g =", pair.g)
 print("pressure p =", pair.p)

@@ -329,7 +329,7 @@ def cmd_point(args) -> int:
             return EXIT_USAGE
     from .errors import RunError
     from .material import point
-    from .runner import material_of
+    from .build import material_of
     material = material_of(problem.materials[name])
     try:
         if args.path == "uniaxial":

@@ -2,19 +2,15 @@
 
 Tools (:mod:`fenics_plast.tools`: :class:`~fenics_plast.tools.Plane`, ``Circle``, ``Profile``) are
 rigid bodies that only translate, along a path of the solver's load factor (the ``fem.Constant``
-``solver.load``).  For every tool the gap ``g`` and the outward normal ``N`` (pointing from the tool
-into the body) are exact UFL expressions of the current position ``x = X + u`` of the body's
-candidate facets.  The punch-stretching scene's tools are thin layers over them, kept here:
-
-* :class:`SphericalPunch`: sphere (circle in the r-z plane) of radius R centred on the axis,
-  tangent to z = ``z_pole`` at load 0, moving up by ``travel * lam``;
-* :class:`CircularTool` / :class:`DieShoulder`: a fixed circle (a torus in axisymmetry);
-* :class:`FlatWall`: a plane through ``point`` with normal ``normal`` (into the body), moving along a
-  piecewise-linear path of the load factor (tests).
+``solver.load``; :func:`fenics_plast.tools.piecewise_path` makes a piecewise-linear one).  For every
+tool the gap ``g`` and the outward normal ``N`` (pointing from the tool into the body) are exact UFL
+expressions of the current position ``x = X + u`` of the body's candidate facets.
 
 Each :class:`ContactPair` (one tool against one facet group, :meth:`PenaltyContact.add_pair`) has
 its own normal penalty ``eps``, tangential penalty ``eps_T``, friction coefficient ``mu`` and law;
-:meth:`PenaltyContact.add_tool` uses the contact-wide defaults given to :class:`PenaltyContact`.
+:meth:`PenaltyContact.add_tool` uses the contact-wide values given to :class:`PenaltyContact`.
+Friction coefficient and law default to the schema's ``contact.<name>.friction`` and
+``contact.<name>.law`` (:func:`fenics_plast.schema.default`), the laws are its choices (:data:`LAWS`).
 
 Normal contact (seed eqs. 17-18) is a penalty derived from the potential
 ``Pi = int 1/2 eps <-g>^2 w dA0`` (reference facets, weight w = 2 pi R in axisymmetry): the
@@ -73,10 +69,11 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from fenics_plast import dolfinx_compat as dc
-from fenics_plast.expressions import piecewise_linear
-from fenics_plast.tools import PENALTY_FACTOR, Circle, Plane, Tool, _TINY, default_penalty
+from fenics_plast.schema import PENALTY_FACTOR, choices, default
+from fenics_plast.tools import TINY, default_penalty
 
-LAWS = ("coulomb", "quasi-coulomb")
+#: the friction laws: "coulomb" (p, N current), "quasi-coulomb" (p, N of the last commit)
+LAWS = choices("contact.*.law")
 
 #: nodal (trapezoidal) rule on facets: points at the facet's end points
 NODAL_RULE = {"quadrature_degree": 1, "quadrature_rule": "custom",
@@ -105,71 +102,15 @@ def nodal_rule(mesh):
 
 
 # ----------------------------------------------------------------------------------------------
-# the tools of the punch-stretching scene (thin layers over fenics_plast.tools, same numbers)
-
-
-class CircularTool(Circle):
-    """Circle of radius ``radius`` [mm] centred at ``center`` + translation (the body lies outside)."""
-
-    def __init__(self, radius, center, name=None, path=None):
-        super().__init__(center, radius, path=path, name=name)
-
-
-class SphericalPunch(CircularTool):
-    """Hemispherical punch of radius R [mm] on the axis, its pole at z = ``z_pole`` + travel * lam."""
-
-    name = "punch"
-
-    def __init__(self, radius, travel, z_pole=0.0):
-        self.travel = float(travel)
-        super().__init__(radius, (0.0, z_pole - radius), path=self._path)
-
-    def _path(self, lam, use_ufl):
-        return (ufl.as_ufl(0.0), self.travel * lam) if use_ufl else (0.0, self.travel * float(lam))
-
-
-class DieShoulder(CircularTool):
-    """Fixed die shoulder: circle of radius ``radius`` centred at (r_c, z_c) [mm]."""
-
-    name = "die"
-
-    def __init__(self, radius, r_center, z_center):
-        super().__init__(radius, (r_center, z_center))
-
-
-class FlatWall(Plane):
-    """Plane through ``point`` (+ translation) with unit ``normal`` pointing into the body.
-
-    ``path``: knots [(lam, dx, dy), ...] of a piecewise-linear translation [mm] (default: fixed);
-    a 3-D wall (3-vector point and normal) takes knots (lam, dx, dy, dz).
-    """
-
-    name = "wall"
-
-    def __init__(self, point=(0.0, 0.0), normal=(0.0, 1.0), path=None, name=None):
-        width = 1 + len(normal)
-        self.knots = [(0.0,) * width] if not path else [tuple(map(float, k)) for k in path]
-        if any(len(k) != width for k in self.knots):
-            raise ValueError(f"wall path knots must be (lam, {', '.join('d' + c for c in 'xyz'[:width - 1])})")
-        super().__init__(point, normal, path=self._path, name=name)
-
-    def _path(self, lam, use_ufl):
-        t = [k[0] for k in self.knots]
-        return tuple(piecewise_linear(lam, t, [k[i] for k in self.knots], use_ufl)
-                     for i in range(1, len(self.knots[0])))
-
-
-# ----------------------------------------------------------------------------------------------
 # contact pairs
 
 
 class ContactPair:
     """One tool against the body facets tagged ``tag``, with its own normal penalty [N/mm^3],
     tangential penalty [N/mm^3], friction coefficient and law (UFL forms + nodal history).
-    Made by :meth:`PenaltyContact.add_pair` / :meth:`PenaltyContact.add_tool`."""
+    Made by :meth:`PenaltyContact.add_pair` / :meth:`PenaltyContact.add_tool` (which hold the defaults)."""
 
-    def __init__(self, contact, tool, facet_tags, tag, *, penalty, friction=0.0, law="quasi-coulomb",
-                 tangential_penalty=None):
+    def __init__(self, contact, tool, facet_tags, tag, *, penalty, friction, law, tangential_penalty=None):
         if law not in LAWS:
             raise ValueError(f"contact law must be one of {LAWS}, got {law!r}")
         if not penalty > 0:
@@ -288,7 +229,7 @@ class ContactPair:
         trial = t_n - self.tangential_penalty_c * ds_rel
         t_tr = trial - ufl.dot(Nf, trial) * Nf
         # slip where |t_tr| > bound (then |t_tr| > 0: the guard only keeps the unused branch finite)
-        norm = ufl.sqrt(ufl.dot(t_tr, t_tr) + _TINY)
+        norm = ufl.sqrt(ufl.dot(t_tr, t_tr) + TINY)
         t = ufl.conditional(ufl.gt(ufl.dot(t_tr, t_tr), bound * bound), (bound / norm) * t_tr, t_tr)
         self.t_vec = active * t
         self.t_trial = t_tr
@@ -394,11 +335,13 @@ class PenaltyContact:
         solver.run(..., callback=lambda s: c.commit() or False)
 
     ``penalty``, ``friction``, ``law`` and ``tangential_penalty`` given here are the contact-wide
-    defaults used by :meth:`add_tool` (``PenaltyContact(solver, eps, friction=0.15)`` then
-    ``add_tool(SphericalPunch(50.8, 40.0), facet_tags, lower_tag)``).
+    values used by :meth:`add_tool` (``PenaltyContact(solver, eps, friction=0.15)`` then
+    ``add_tool(Circle((0.0, -50.8), 50.8, path=...), facet_tags, lower_tag)``). Friction and law
+    default to the schema's (:func:`fenics_plast.schema.default`).
     """
 
-    def __init__(self, solver, penalty=None, friction=0.0, law="quasi-coulomb", tangential_penalty=None):
+    def __init__(self, solver, penalty=None, friction=default("contact.*.friction"), law=default("contact.*.law"),
+                 tangential_penalty=None):
         if law not in LAWS:
             raise ValueError(f"contact law must be one of {LAWS}, got {law!r}")
         if penalty is not None and not penalty > 0:
@@ -423,8 +366,8 @@ class PenaltyContact:
         self.pairs: list[ContactPair] = []
         self._attached = False
 
-    def add_pair(self, tool, facet_tags, tag, *, penalty, friction=0.0, law="quasi-coulomb",
-                 tangential_penalty=None):
+    def add_pair(self, tool, facet_tags, tag, *, penalty, friction=default("contact.*.friction"),
+                 law=default("contact.*.law"), tangential_penalty=None):
         """Contact of ``tool`` with the facets tagged ``tag``: normal penalty [N/mm^3], Coulomb
         coefficient (0: no friction term), law ("coulomb" / "quasi-coulomb") and tangential
         penalty [N/mm^3] (None: the normal penalty).  Call before :meth:`attach`."""
@@ -481,7 +424,7 @@ class PenaltyContact:
         entries of the state w_c and of each pair's nodal history (t_n, N_n, p_n) as ``hist<i>``,
         keyed by node/cell, and the load factor lam_c."""
         from fenics_plast.checkpoint import owned_keyed
-        d = dict(w_c=owned_keyed(self.w_c, self.solver._checkpoint_keys()[0]), lam_c=float(self.lam_c.value))
+        d = dict(w_c=owned_keyed(self.w_c, self.solver.checkpoint_keys()[0]), lam_c=float(self.lam_c.value))
         for i, p in enumerate(self.pairs):
             d[f"hist{i}"] = owned_keyed(p.hist)
         return d
@@ -490,7 +433,7 @@ class PenaltyContact:
         """Restore :meth:`state_dict` (collective; same mesh and tools)."""
         from fenics_plast import checkpoint as ck
         ck.require(d, ["w_c", "lam_c"] + [f"hist{i}" for i in range(len(self.pairs))], "contact")
-        funs = [(self.w_c, d["w_c"], self.solver._checkpoint_keys()[0])]
+        funs = [(self.w_c, d["w_c"], self.solver.checkpoint_keys()[0])]
         funs += [(p.hist, d[f"hist{i}"], ck.dof_keys(p.hist.function_space)) for i, p in enumerate(self.pairs)]
         why, vals = None, []
         try:
@@ -520,5 +463,5 @@ class PenaltyContact:
         return self.comm.allreduce(local, op=MPI.MAX)
 
 
-__all__ = ["Tool", "CircularTool", "SphericalPunch", "DieShoulder", "FlatWall", "ContactPair",
-           "PenaltyContact", "default_penalty", "PENALTY_FACTOR", "LAWS", "NODAL_RULE", "nodal_rule"]
+__all__ = ["ContactPair", "PenaltyContact", "default_penalty", "PENALTY_FACTOR", "LAWS", "NODAL_RULE",
+           "nodal_rule"]

@@ -19,12 +19,13 @@ import math
 
 import ufl
 
-GEOMETRIES = ("axisymmetric", "plane_strain", "3d")
+from fenics_plast.schema import GEOMETRIES, default
+
 QUADRATURE_DEGREE = 2
 
 
 class Kinematics:
-    def __init__(self, mesh, geometry: str = "axisymmetric", degree: int = QUADRATURE_DEGREE):
+    def __init__(self, mesh, geometry: str = default("mesh.geometry"), degree: int = QUADRATURE_DEGREE):
         if geometry not in GEOMETRIES:
             raise ValueError(f"geometry must be one of {GEOMETRIES}, got {geometry!r}")
         self.mesh = mesh

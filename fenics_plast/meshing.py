@@ -20,7 +20,7 @@ import gmsh
 from dolfinx.io import gmshio
 
 from .geo_screen import MESH_DIR, GeoScreenError, screen
-from .schema import is_cell_count
+from .schema import default, is_cell_count
 
 
 def geo_path(name: str) -> Path:
@@ -83,7 +83,7 @@ def ring_mesh(comm, inner_radius, outer_radius, cells_radial, cells_circumferent
         "radial_grading": grading})
 
 
-def refined(parameters: dict, refine=1) -> dict:
+def refined(parameters: dict, refine: int) -> dict:
     """The .geo parameters with ``refine`` applied: each cell count (a name that starts with ``cells`` or
     ends in ``_cells``, :func:`fenics_plast.schema.is_cell_count`) multiplied by it."""
     return {k: (v * refine if is_cell_count(k) else v) for k, v in parameters.items()}
@@ -203,7 +203,8 @@ def _require_hexahedra(name, groups, gdim=3):
                         f"Transfinite Volume + Recombine, or Extrude with Layers and Recombine)")
 
 
-def mesh_from_file(comm, path, parameters=None, refine=1, gdim=2, trust_script=False, scene_dir=None):
+def mesh_from_file(comm, path, parameters=None, refine=default("mesh.refine"), gdim=2, trust_script=False,
+                   scene_dir=None):
     """A dolfinx mesh and its named groups from a Gmsh ``.geo`` (meshed here) or ``.msh`` file.
 
     ``parameters`` (name -> number) set the .geo's ``DefineConstant`` values "Parameters/<name>";

@@ -203,9 +203,6 @@ def _draw_cells(path: Path, spec: Cells, data, title) -> None:
 # the data of a Cells figure
 
 
-_QUAD_CYCLE = [0, 1, 3, 2]      # basix quadrilateral vertex order is tensor-product
-
-
 def cells_table(V, positions, cell_values, value_name: str) -> dict[str, np.ndarray]:
     """Columns x1, y1, ..., x4, y4 [mm] (cyclic vertex order) and ``value_name`` of every cell,
     gathered on rank 0 (other ranks get empty columns), for ``RunOutput.write_csv``.
@@ -215,10 +212,11 @@ def cells_table(V, positions, cell_values, value_name: str) -> dict[str, np.ndar
     cell_values : DG0 Function (one value per cell). Collective over V's communicator.
     """
     from fenics_plast import dolfinx_compat as dc     # dolfinx only here: `fenics-plast plot` needs none
+    from fenics_plast.solvers.quad_step import QUAD_CYCLE
     mesh = V.mesh
     tdim = mesh.topology.dim
     n_own = mesh.topology.index_map(tdim).size_local
-    nodes = np.asarray(dc.cell_dofs(V))[:n_own][:, _QUAD_CYCLE]
+    nodes = np.asarray(dc.cell_dofs(V))[:n_own][:, QUAD_CYCLE]
     xy = np.asarray(positions)[nodes, :2].reshape(n_own, 8)
     dg = np.asarray(dc.cell_dofs(cell_values.function_space)).reshape(-1)[:n_own]
     val = np.asarray(cell_values.x.array)[dg]

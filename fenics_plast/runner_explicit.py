@@ -1,12 +1,14 @@
-"""Explicit analyses: central differences with a lumped mass (see :mod:`fenics_plast.runner`).
+"""Explicit analyses: central differences with a lumped mass (see :mod:`fenics_plast.runner`), on what
+:mod:`fenics_plast.build` builds from the scene.
 
 Boundary conditions are velocity constraints: ``fixed``, ``axis`` and ``symmetry`` hold components
 at zero velocity (sliding supports; in 3-D scenes, ``problem.mesh.geometry == "3d"`` on a hexahedral
-mesh, components x, y, z and symmetry planes normal to x, y or z, as :mod:`fenics_plast.runner`
-resolves them: ``components_of``, ``symmetry_component``); ``velocity`` and ``displacement``
-prescribe a component as a function of time. ``traction`` and ``pressure`` are dead loads. ``wall``
-is a rigid plane the nodes cannot pass (:mod:`fenics_plast.solvers.walls`). Times in scene files are
-in µs.
+mesh, components x, y, z and symmetry planes normal to x, y or z, as :func:`fenics_plast.build.boundaries`
+resolves them); ``velocity`` and ``displacement`` prescribe a component as a function of time.
+``traction`` is a dead load, uniform over its group (validation refuses pressure and values of x, y,
+z). ``wall`` is a rigid plane the nodes cannot pass (:mod:`fenics_plast.solvers.walls`). Times in
+scene files are in µs, seconds inside (the build converts the scene's values; results are written
+in µs again).
 History rows are ``output.history_points`` equally spaced times (time_us + the declared outputs).
 """
 from __future__ import annotations
@@ -19,64 +21,53 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from fenics_plast import dolfinx_compat as dc
+from fenics_plast.build import (body_material, boundaries, cell_regions, contact_pairs, initial_velocity_field,
+                                tool_force_of, tools_of)
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.errors import RunError, SceneError
-from fenics_plast.schema import M_S
+from fenics_plast.schema import US
 from fenics_plast.quantities import Body, Quantities
-from fenics_plast.runner import (body_material, cell_regions, checkpointer, components_of, contact_modulus,
-                                 draw_plots, initial_velocity_field, open_fields, penetration_report, read_mesh,
-                                 symmetry_component, tool_of, values_of, write_final_shape)
+from fenics_plast.results import checkpointer, draw_plots, open_fields, penetration_report, write_final_shape
+from fenics_plast.scene_mesh import read_mesh
 from fenics_plast.solvers.collapse import TimeStepCollapse
 from fenics_plast.solvers.explicit import ExplicitDynamics
 
-US = 1e-6
 #: added mass (fraction of the body's) above which the run log warns
 MASS_WARNING = 0.05
 
 
-def velocity_constraints(problem, V, ft, groups):
-    """Homogeneous velocity constraints [(component, facets)] and the prescribed motions
-    [(component, facets, kind, value)] of [boundary] (walls: :func:`add_walls`)."""
+def velocity_constraints(conditions):
+    """Homogeneous velocity constraints [(component, facets)], the prescribed motions [(component,
+    facets, kind, function of t [s] in mm/s or mm)] and the loads [Boundary] of ``conditions``
+    (:func:`fenics_plast.build.boundaries`; walls: :func:`add_walls`)."""
     zero, moving, loads = [], [], []
-    geometry = problem.mesh.geometry          # "z" is component 1 in 2-D, 2 in 3-D
-    for name, b in problem.boundary.items():
+    for b in conditions:
         if b.type == "wall":
             continue
-        tag = groups[b.group][1]
-        facets = ft.find(tag)
-        where = f"{problem.path}: boundary.{name}"
-        if b.type == "fixed":
-            zero += [(c, facets) for c in components_of(b, geometry)]
-        elif b.type == "axis":
-            zero.append((0, facets))
-        elif b.type == "symmetry":
-            zero.append((symmetry_component(V, ft, tag, where), facets))
+        if b.type in ("fixed", "axis", "symmetry"):
+            zero += [(c, b.facets) for c in b.components]
         elif b.type in ("velocity", "displacement"):
-            comps = components_of(b, geometry)
-            for c, val in zip(comps, values_of(b, len(comps))):
-                if val.depends_on_space:
-                    raise SceneError(f"{where}.value: explicit prescribed motion must be uniform over the group "
-                                     f"(a function of t only)")
+            for c, val, f in zip(b.components, b.values, b.of_seconds()):
                 if b.type == "velocity" and val.constant == 0.0:
-                    zero.append((c, facets))
+                    zero.append((c, b.facets))
                 else:
-                    moving.append((c, facets, b.type, val, name))
+                    moving.append((c, b.facets, b.type, f))
         else:
-            loads.append((name, b))
+            loads.append(b)
     return zero, moving, loads
 
 
-def add_walls(problem, solver, ft, groups):
-    """The rigid walls of [boundary] (type "wall") on ``solver``: every node, or the nodes of the
+def add_walls(problem, solver, conditions):
+    """The rigid walls of ``conditions`` (type "wall") on ``solver``: every node, or the nodes of the
     wall's facet group."""
-    for name, b in problem.boundary.items():
+    for b in conditions:
         if b.type != "wall":
             continue
         nodes = None
-        if b.group is not None:
-            nodes = fem.locate_dofs_topological(solver.V, solver.mesh.topology.dim - 1, ft.find(groups[b.group][1]))
+        if b.facets is not None:
+            nodes = fem.locate_dofs_topological(solver.V, solver.mesh.topology.dim - 1, b.facets)
         try:
-            solver.add_wall(components_of(b, problem.mesh.geometry)[0], b.position, nodes, name=f"boundary.{name}")
+            solver.add_wall(b.components[0], b.spec.position, nodes, name=f"boundary.{b.name}")
         except ValueError as e:
             raise SceneError(f"{problem.path}: {e}") from None
 
@@ -104,59 +95,41 @@ def checked_steps(problem, solver) -> int:
 def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
     """The explicit solver of ``problem`` with its constraints, loads, contact pairs and initial
     velocity, ready to ``run``: a namespace of ``solver``, ``material``, ``tools`` (name -> tool),
-    ``pairs`` (contact name -> pair), ``body`` (:class:`Body`), mesh, cell_tags, facet_tags, groups.
+    ``pairs`` (contact name -> pair), ``contact_pairs`` (name -> :class:`fenics_plast.build.ContactPair`:
+    depth, default penalty), ``body`` (:class:`Body`), mesh, cell_tags, facet_tags, groups.
     ``log``: progress lines (None: quiet)."""
     mesh, ct, ft, groups = mesh_data if mesh_data is not None else read_mesh(problem, comm)
     ana = problem.analysis
     material, density = body_material(problem, ct, groups, mesh.topology.index_map(mesh.topology.dim).size_local)
     kin = Kinematics(mesh, problem.mesh.geometry)
-    V = dc.vector_space(mesh)
-    zero, moving, loads = velocity_constraints(problem, V, ft, groups)
+    conditions = boundaries(problem, dc.vector_space(mesh), ft, groups)
+    zero, moving, loads = velocity_constraints(conditions)
     solver = ExplicitDynamics(mesh, kin, material, density, zero, element=problem.mesh.element,
                               log=log if log is not None else (lambda m: None), internal_force=ana.internal_force,
                               stable_step=ana.stable_step, erosion_ratio=ana.erosion_ratio)
-    add_walls(problem, solver, ft, groups)
-    for c, facets, kind, val, name in moving:
+    add_walls(problem, solver, conditions)
+    for c, facets, kind, f in moving:           # f: of t [s], in mm/s or mm (build.time_function)
         dofs = fem.locate_dofs_topological(solver.V, mesh.topology.dim - 1, facets)
-        f = (lambda v: (lambda t: float(v.evaluate(t=t / US))))(val)
         if kind == "velocity":
-            solver.add_prescribed_velocity(c, dofs, lambda t, f=f: f(t) * M_S)     # m/s -> mm/s
+            solver.add_prescribed_velocity(c, dofs, f)
         else:
             solver.add_prescribed_displacement(c, dofs, f)
-    for name, b in loads:
-        comps = list(range(solver.bs)) if b.type == "pressure" else components_of(b, problem.mesh.geometry)
-        vals = values_of(b, len(comps)) if b.type != "pressure" else [b.value]
-        if b.type == "pressure" or any(v.depends_on_space for v in vals):
-            raise SceneError(f"{problem.path}: boundary.{name}: explicit analyses take uniform tractions "
-                             f"(functions of t only); pressure loads are for static analyses")
+    for b in loads:                             # uniform tractions (validation), of t [s] in MPa
         fns = [None] * solver.bs
-        for c, v in zip(comps, vals):
-            fns[c] = (lambda v: (lambda t: float(v.evaluate(t=t / US))))(v)
-        solver.add_traction(ft, groups[b.group][1], tuple(fn or (lambda t: 0.0) for fn in fns))
-    tools = {n: tool_of(n, t, time_scale=US) for n, t in problem.tools.items()}
-    pairs, contact_scales = {}, {}      # contact_scales: name -> (cell depth [mm], default penalty [N/mm^3])
-    if problem.contact:
-        from fenics_plast.tools import contact_length_scale, default_penalty
-        for name, spec in problem.contact.items():
-            tag = groups[spec.group][1]
-            depth = contact_length_scale(mesh, ft, tag)
-            default = default_penalty(contact_modulus(material, mesh, ft, tag), depth)
-            eps = spec.penalty if spec.penalty is not None else default
-            contact_scales[name] = (depth, default)
-            pairs[name] = solver.add_contact(tools[spec.tool], ft, tag, penalty=eps, friction=spec.friction,
-                                             law=spec.law, tangential_penalty=spec.tangential_penalty)
-    # m/s as written -> mm/s, per node (regions, expressions of x, y, z)
-    solver.set_velocity(initial_velocity_field(problem, solver.V, ct, groups, M_S))
-
-    def tool_force(tool):
-        return sum((np.asarray(p.force()) for n, p in pairs.items() if problem.contact[n].tool == tool),
-                   np.zeros(solver.bs))
+        for c, f in zip(b.components, b.of_seconds()):
+            fns[c] = f
+        solver.add_traction(ft, b.tag, tuple(fn or (lambda t: 0.0) for fn in fns))
+    tools = tools_of(problem)
+    specs = contact_pairs(problem, mesh, ft, groups, material, tools)
+    pairs = {name: solver.add_contact(p.tool, ft, p.tag, **p.options()) for name, p in specs.items()}
+    # per node (regions, expressions of x, y, z) [mm/s]
+    solver.set_velocity(initial_velocity_field(problem, solver.V, ct, groups))
 
     body = Body(comm, solver.V, solver._X, solver.nodal_positions, solver.qmap,
-                cell_regions(ct, groups, solver.qmap.n_owned), tool_force=tool_force,
+                cell_regions(ct, groups, solver.qmap.n_owned), tool_force=tool_force_of(problem, pairs, solver.bs),
                 energies=solver.energies, tool_translation=lambda tool, t: tools[tool].translation(t, use_ufl=False),
                 geometry=problem.mesh.geometry)
-    return SimpleNamespace(solver=solver, material=material, tools=tools, pairs=pairs, contact_scales=contact_scales,
+    return SimpleNamespace(solver=solver, material=material, tools=tools, pairs=pairs, contact_pairs=specs,
                            body=body, mesh=mesh, cell_tags=ct, facet_tags=ft, groups=groups)
 
 
@@ -287,8 +260,9 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
         for name, p in pairs.items():
             res[f"{name}_max_penetration_mm"] = p.max_penetration_run()
             res[f"{name}_penalty_N_mm3"] = p.penalty
-            depth, default = b.contact_scales[name]
-            report = penetration_report(name, res[f"{name}_max_penetration_mm"], depth, p.penalty, default, comm)
+            spec = b.contact_pairs[name]
+            report = penetration_report(name, res[f"{name}_max_penetration_mm"], spec.depth, p.penalty,
+                                        spec.default_penalty, comm)
             warnings += report.pop("warnings")
             res.update(report)
         if warnings:

@@ -1,4 +1,5 @@
-"""Static analyses: load steps over a pseudo-time t with the SNES solver (see :mod:`fenics_plast.runner`).
+"""Static analyses: load steps over a pseudo-time t with the SNES solver (see :mod:`fenics_plast.runner`),
+on what :mod:`fenics_plast.build` builds from the scene.
 
 Boundary values and tool paths are functions of t (the solver's load factor); each [steps.<name>]
 ends at a pseudo-time where a converged state is reached exactly (profiles and fields are written
@@ -12,15 +13,16 @@ from types import SimpleNamespace
 import numpy as np
 import ufl
 
+from fenics_plast.build import (body_material, boundaries, cell_regions, contact_pairs, tool_force_of,
+                                tools_of)
 from fenics_plast.errors import RunError
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.errors import SceneError
 from fenics_plast.schema import component_index
 from fenics_plast.quadrature import von_mises
 from fenics_plast.quantities import Body, Quantities
-from fenics_plast.runner import (body_material, cell_regions, checkpointer, components_of, contact_modulus,
-                                 draw_plots, open_fields, penetration_report, read_mesh, symmetry_component,
-                                 tool_of, values_of, write_final_shape)
+from fenics_plast.results import checkpointer, draw_plots, open_fields, penetration_report, write_final_shape
+from fenics_plast.scene_mesh import read_mesh
 from fenics_plast.solvers.static import StaticSolver
 
 
@@ -28,7 +30,7 @@ def ramp_end(problem, b, value) -> float | None:
     """The pseudo-time t_ramp over which a boundary value is ramped (from 0 at t = 0 to its full value
     at t_ramp, then held): the end of the first load step, for a value that does not depend on t and
     whose amplitude is "ramp" (the default); None: the value is applied as written."""
-    if value.depends_on_time or b.get("amplitude", "step") == "step":
+    if value.depends_on_time or b.get("amplitude") != "ramp":      # absent where amplitude does not apply
         return None
     return load_steps(problem)[0][1]
 
@@ -50,43 +52,39 @@ def _ramped_ufl(expr, t, t_ramp):
     return expr if t_ramp is None else expr * ufl.min_value(t / t_ramp, 1.0)
 
 
-def apply_boundary(problem, s, ft, groups):
-    """Dirichlet conditions and dead loads of [boundary]; returns {group: set of constrained components}.
-    A value that does not depend on t is ramped over the first load step unless its amplitude is "step"."""
+def apply_boundary(problem, s, ft, conditions):
+    """Dirichlet conditions and dead loads of [boundary] (``conditions``: :func:`fenics_plast.build.boundaries`);
+    returns {group: set of constrained components}. A value that does not depend on t is ramped over
+    the first load step unless its amplitude is "step"."""
     constrained: dict[str, set] = {}
     X = ufl.SpatialCoordinate(s.mesh)
     w = s.kin.weight
-    geometry, gdim = problem.mesh.geometry, s.kin.gdim
+    gdim = s.kin.gdim
     coords = dict(x=X[0], y=X[1], z=X[2]) if gdim == 3 else dict(x=X[0], y=X[1])
-    for name, b in problem.boundary.items():
-        tag = groups[b.group][1]
-        where = f"{problem.path}: boundary.{name}"
+    for b in conditions:
+        tag, comps = b.tag, b.components
         if b.type in ("fixed", "axis", "symmetry"):
-            comps = (components_of(b, geometry) if b.type == "fixed" else
-                     [0] if b.type == "axis" else [symmetry_component(s.displacement_space()[0], ft, tag, where)])
             for c in comps:
                 s.add_dirichlet(c, ft, tag, 0.0)
         elif b.type == "displacement":
-            comps = components_of(b, geometry)
-            for c, val in zip(comps, values_of(b, len(comps))):
-                s.add_prescribed(c, ft, tag, _prescribed(val, ramp_end(problem, b, val)))
+            for c, val in zip(comps, b.values):
+                s.add_prescribed(c, ft, tag, _prescribed(val, ramp_end(problem, b.spec, val)))
         elif b.type in ("traction", "pressure"):
             ds = ufl.Measure("ds", domain=s.mesh, subdomain_data=ft)(tag)
             t_ufl = s.load
             if b.type == "pressure":
-                p = _ramped_ufl(b.value.to_ufl(**coords, t=t_ufl), t_ufl, ramp_end(problem, b, b.value))
+                (value,) = b.values
+                p = _ramped_ufl(value.to_ufl(**coords, t=t_ufl), t_ufl, ramp_end(problem, b.spec, value))
                 traction = -p * ufl.FacetNormal(s.mesh)
             else:
-                comps = components_of(b, geometry)
-                vals = values_of(b, len(comps))
                 tv = [ufl.as_ufl(0.0)] * gdim
-                for c, val in zip(comps, vals):
-                    tv[c] = _ramped_ufl(val.to_ufl(**coords, t=t_ufl), t_ufl, ramp_end(problem, b, val))
+                for c, val in zip(comps, b.values):
+                    tv[c] = _ramped_ufl(val.to_ufl(**coords, t=t_ufl), t_ufl, ramp_end(problem, b.spec, val))
                 traction = ufl.as_vector(tv)
             s.add_residual(-ufl.dot(traction, s.v) * w * ds)
             continue
         else:
-            raise SceneError(f"{where}.type = {b.type!r} is not available in static analyses")
+            raise SceneError(f"{b.where}.type = {b.type!r} is not available in static analyses")
         constrained.setdefault(b.group, set()).update(comps)
     return constrained
 
@@ -110,25 +108,16 @@ def reaction_dofs(problem, s, ft, groups, constrained):
     return out
 
 
-def add_contact(problem, s, ft, groups, material, tools):
-    """The [contact] pairs as penalty terms of the residual: (the contact set or None when the scene has
-    none, {name: pair}, {name: (depth of the cells along its group [mm], its default penalty [N/mm^3])})."""
-    if not problem.contact:
-        return None, {}, {}
+def add_contact(s, ft, specs):
+    """The contact pairs ``specs`` (name -> :class:`fenics_plast.build.ContactPair`) as penalty terms of
+    the residual: (the contact set or None when there are none, {name: pair})."""
+    if not specs:
+        return None, {}
     from fenics_plast.contact import PenaltyContact
-    from fenics_plast.tools import contact_length_scale, default_penalty
     c = PenaltyContact(s)            # every pair carries its own penalty, friction and law
-    pairs, scales = {}, {}
-    for name, spec in problem.contact.items():
-        tag = groups[spec.group][1]
-        depth = contact_length_scale(s.mesh, ft, tag)
-        default = default_penalty(contact_modulus(material, s.mesh, ft, tag), depth)
-        eps = spec.penalty if spec.penalty is not None else default
-        pairs[name] = c.add_pair(tools[spec.tool], ft, tag, penalty=eps, friction=spec.friction, law=spec.law,
-                                 tangential_penalty=spec.tangential_penalty)
-        scales[name] = (depth, default)
+    pairs = {name: c.add_pair(p.tool, ft, p.tag, **p.options()) for name, p in specs.items()}
     c.attach()
-    return c, pairs, scales
+    return c, pairs
 
 
 #: a penalty this many times above or below its pair's default is named as a likely cause of a failure
@@ -141,10 +130,10 @@ def _penalty_hint(b, pairs) -> str:
     body through), or ""."""
     hints = []
     for n, p in pairs.items():
-        ratio = p.penalty / b.contact_scales[n][1]
+        ratio = p.penalty / b.contact_pairs[n].default_penalty
         if ratio > PENALTY_HINT_RATIO or ratio < 1.0 / PENALTY_HINT_RATIO:
             hints.append(f"contact.{n}.penalty = {p.penalty:.3g} N/mm^3 is {ratio:.3g} times this pair's default "
-                         f"({b.contact_scales[n][1]:.3g} N/mm^3)")
+                         f"({b.contact_pairs[n].default_penalty:.3g} N/mm^3)")
     return f" Likely cause: {'; '.join(hints)}." if hints else ""
 
 
@@ -158,7 +147,8 @@ def load_steps(problem) -> list[tuple[str, float, int, float]]:
 def build_static(problem, comm, mesh_data=None, log=None, progress=None) -> SimpleNamespace:
     """The static solver of ``problem`` with its boundary conditions, loads and contact pairs, set
     up and ready to ``run``: a namespace of ``solver``, ``material``, ``tools``, ``contact`` (the
-    contact set or None), ``pairs``, ``reactions`` ((group, component) -> dofs), ``body``
+    contact set or None), ``pairs``, ``contact_pairs`` (name -> :class:`fenics_plast.build.ContactPair`:
+    depth, default penalty), ``reactions`` ((group, component) -> dofs), ``body``
     (:class:`Body`, on the collapsed displacement space), ``positions()`` (current node positions),
     mesh, cell_tags, facet_tags, groups. ``log``, ``progress``: as for :class:`StaticSolver`."""
     mesh, ct, ft, groups = mesh_data if mesh_data is not None else read_mesh(problem, comm)
@@ -169,22 +159,21 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None) -> Simp
                 linear_solver=ana.linear_solver, linear_rtol=ana.linear_rtol,
                 linear_max_iterations=ana.linear_max_iterations)
     s = StaticSolver(kin, material, element=problem.mesh.element, log=log, progress=progress, **opts)
-    constrained = apply_boundary(problem, s, ft, groups)
-    tools = {n: tool_of(n, t) for n, t in problem.tools.items()}
-    contact, pairs, contact_scales = add_contact(problem, s, ft, groups, material, tools)
+    Vc, vmap = s.displacement_space()
+    constrained = apply_boundary(problem, s, ft, boundaries(problem, Vc, ft, groups))
+    tools = tools_of(problem)
+    specs = contact_pairs(problem, mesh, ft, groups, material, tools)
+    contact, pairs = add_contact(s, ft, specs)
     s.setup()
     reactions = reaction_dofs(problem, s, ft, groups, constrained)
 
-    Vc, vmap = s.displacement_space()
     gdim = kin.gdim
     X = Vc.tabulate_dof_coordinates()[:, :gdim].copy()
 
     def positions():
         return X + s.w.x.array[vmap].reshape(-1, gdim)
 
-    def tool_force(tool):
-        return sum((np.asarray(p.force()) for n, p in pairs.items() if problem.contact[n].tool == tool),
-                   np.zeros(gdim))
+    tool_force = tool_force_of(problem, pairs, gdim)
 
     def tool_translation(tool, t):
         return tools[tool].translation(t, use_ufl=False)
@@ -193,7 +182,7 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None) -> Simp
                 reaction=s.reaction, tool_force=tool_force, tool_translation=tool_translation,
                 geometry=problem.mesh.geometry)
     return SimpleNamespace(solver=s, material=material, tools=tools, contact=contact, pairs=pairs,
-                           contact_scales=contact_scales,
+                           contact_pairs=specs,
                            reactions=reactions, body=body, positions=positions, Vc=Vc, mesh=mesh, cell_tags=ct,
                            facet_tags=ft, groups=groups)
 
@@ -285,8 +274,8 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
             warnings = []
             for n, p in pairs.items():
                 res[f"penalty_{n}_N_mm3"] = p.penalty
-                depth, default = b.contact_scales[n]
-                report = penetration_report(n, p.max_penetration(), depth, p.penalty, default, comm)
+                spec = b.contact_pairs[n]
+                report = penetration_report(n, p.max_penetration(), spec.depth, p.penalty, spec.default_penalty, comm)
                 warnings += report.pop("warnings")
                 res.update(report)
             if warnings:

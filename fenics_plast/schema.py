@@ -6,7 +6,10 @@ meaning. Keys that only apply to some variants of a table (``analysis.type``,
 ``boundary.<name>.type``, ``tools.<name>.shape``, ``outputs.<name>.quantity``,
 ``materials.<name>.hardening.law``) say so in ``Key.when``. The validator
 (:mod:`fenics_plast.validation`), the ``--set`` overrides and the key reference
-(:mod:`fenics_plast.keys_doc`, docs/SCENE_KEYS.md) all read this one table.
+(:mod:`fenics_plast.keys_doc`, docs/SCENE_KEYS.md) all read this one table, and so do the keyword
+defaults and the allowed values of the solvers, materials and tools: :func:`default` and
+:func:`choices` of a dotted key (``default("contact.*.law")``); no other module writes a default of a
+scene key (tests/test_defaults_once.py).
 
 Units inside the package: mm, N, MPa, s, tonne/mm^3. Converted on reading (the value as written is
 kept under ``<key>_as_written``): densities in kg/m^3 (:data:`KG_M3`), velocities in m/s
@@ -18,7 +21,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 __all__ = ["SCHEMA", "SECTIONS", "Key", "Table", "REQUIRED", "OPTIONAL", "COMPONENTS", "COMPONENTS_3D", "GEOMETRIES",
-           "component_index", "component_names", "is_cell_count", "vector_size", "LAWS", "US", "M_S", "KG_M3"]
+           "component_index", "component_names", "is_cell_count", "vector_size", "LAWS", "US", "M_S", "KG_M3",
+           "PENALTY_FACTOR", "key", "default", "choices"]
 
 
 class _Marker:
@@ -66,6 +70,9 @@ STATIC, EXPLICIT = ("static",), ("explicit",)
 US = 1e-6          # explicit times are written in microseconds
 M_S = 1e3          # velocities are written in m/s -> mm/s
 KG_M3 = 1e-12      # densities are written in kg/m^3 -> tonne/mm^3
+#: contact.<name>.penalty absent: PENALTY_FACTOR * E / h (chosen by measurement, see tests/test_contact.py:
+#: penetration < 1 % of the thickness, force change < 1 % for x10; fenics_plast.tools.default_penalty)
+PENALTY_FACTOR = 0.3
 
 
 @dataclass(frozen=True)
@@ -87,23 +94,24 @@ class Key:
     analysis_default: dict | None = None   # {analysis type: default} when the default depends on it
 
     def range_text(self, name: str) -> str:
-        lo = None if self.lo is None else f"{_num(self.lo)} {'<' if self.lo_open else '<='} "
-        hi = None if self.hi is None else f" {'<' if self.hi_open else '<='} {_num(self.hi)}"
+        lo = None if self.lo is None else f"{number_text(self.lo)} {'<' if self.lo_open else '<='} "
+        hi = None if self.hi is None else f" {'<' if self.hi_open else '<='} {number_text(self.hi)}"
         if lo and hi:
             return f"{lo}{name}{hi}"
         if lo:
-            return f"{name} {'>' if self.lo_open else '>='} {_num(self.lo)}"
+            return f"{name} {'>' if self.lo_open else '>='} {number_text(self.lo)}"
         if hi:
             return f"{name}{hi}"
         return ""
 
     def in_range(self, v: float) -> bool:
-        if self.lo is not None and (v <= self.lo if self.lo_open else v < self.lo):
-            return False
-        return not (self.hi is not None and (v >= self.hi if self.hi_open else v > self.hi))
+        """Whether ``v`` lies in the declared range (NaN lies in no bounded range)."""
+        above = self.lo is None or (v > self.lo if self.lo_open else v >= self.lo)
+        return above and (self.hi is None or (v < self.hi if self.hi_open else v <= self.hi))
 
 
-def _num(x) -> str:
+def number_text(x) -> str:
+    """A number as a scene file would write it (400.0 -> "400", 0.25 -> "0.25")."""
     if isinstance(x, float) and x.is_integer() and abs(x) < 1e15:
         return str(int(x))
     return repr(x) if isinstance(x, float) else str(x)
@@ -137,7 +145,7 @@ class Table:
 
 
 _FORCE_UNITS = ("N", "kN")
-_VALUE_DOC = ("a number, an expression of x, y, z, t in quotes (\"3.0*t\"; x, y, z are the reference "
+VALUE_DOC = ("a number, an expression of x, y, z, t in quotes (\"3.0*t\"; x, y, z are the reference "
               "(initial) coordinates [mm]; the grammar is in the README, 'Expressions'), or a table "
               "{ t = [...], value = [...] } (piecewise linear, constant outside)")
 
@@ -297,7 +305,7 @@ SCHEMA: dict[str, Table] = {
             })}),
     "boundary": Table(
         "Boundary conditions and loads, one table per name, each on a Gmsh facet group. Static: t is the "
-        "pseudo-time; explicit: t is the time in µs. Values: " + _VALUE_DOC + ".",
+        "pseudo-time; explicit: t is the time in µs. Values: " + VALUE_DOC + ".",
         collection=True, discriminator="type", keys={
             "group": Key("str", OPTIONAL, "Gmsh physical curve (3-D: surface) name, a facet group. Required "
                          "for every type but wall, where it names the nodes the wall stops (absent: every "
@@ -377,8 +385,8 @@ SCHEMA: dict[str, Table] = {
                             **_nonneg()),
             "law": Key("str", "quasi-coulomb", "coulomb: current p and N; quasi-coulomb: p and N frozen over an "
                        "increment (seed eq. 24, symmetric).", choices=("coulomb", "quasi-coulomb")),
-            "penalty": Key("float", OPTIONAL, "Normal penalty; absent = 0.3 E / h, h the mean depth of the "
-                           "cells along the group.", "N/mm³", **_pos()),
+            "penalty": Key("float", OPTIONAL, f"Normal penalty; absent = {PENALTY_FACTOR:g} E / h, h the mean depth "
+                           "of the cells along the group.", "N/mm³", **_pos()),
             "tangential_penalty": Key("float", OPTIONAL, "Tangential (stick) penalty; absent = the normal "
                                       "penalty.", "N/mm³", **_pos()),
         }),
@@ -481,3 +489,52 @@ SCHEMA: dict[str, Table] = {
 
 SECTIONS = tuple(SCHEMA)
 
+
+
+# ----------------------------------------------------------------------------------------------
+# One key by its dotted path: what the solvers, materials and tools read for their own defaults
+
+
+def key(path: str) -> Key:
+    """The :class:`Key` at the dotted ``path``: ``"analysis.dt_safety"``; the tables of a collection
+    are ``*`` (``"contact.*.law"``); a subtable goes by its name (``"materials.*.hardening.law"``).
+    KeyError naming the path when no key is declared there."""
+    parts = path.split(".")
+    table = SCHEMA.get(parts[0])
+    rest = parts[1:]
+    if table is not None and table.collection:
+        table = table if rest[:1] == ["*"] else None
+        rest = rest[1:]
+    while table is not None and len(rest) > 1:
+        table = table.subtables.get(rest[0])
+        rest = rest[1:]
+    if table is None or len(rest) != 1 or rest[0] not in table.keys:
+        raise KeyError(f"no scene key {path!r} in the schema")
+    return table.keys[rest[0]]
+
+
+def default(path: str, analysis: str | None = None) -> Any:
+    """The value a scene that omits the key at ``path`` (see :func:`key`) gets, as validation fills it
+    in: the declared default (a list as a tuple), None for an OPTIONAL key; ``analysis`` (static |
+    explicit) picks a default that depends on the analysis type. Solvers, materials and tools take
+    their keyword defaults from here (``law=default("contact.*.law")``), so each default is declared
+    once. KeyError for a REQUIRED key (it has no default) or a missing ``analysis``."""
+    k = key(path)
+    value = k.default
+    if k.analysis_default is not None:
+        if analysis not in k.analysis_default:
+            raise KeyError(f"the default of {path!r} depends on the analysis type: give analysis= one of "
+                           f"{', '.join(k.analysis_default)}")
+        value = k.analysis_default[analysis]
+    if value is REQUIRED:
+        raise KeyError(f"scene key {path!r} is required: it has no default")
+    return None if value is OPTIONAL else (tuple(value) if isinstance(value, list) else value)
+
+
+def choices(path: str) -> tuple:
+    """The allowed values of the key at ``path`` (see :func:`key`): what solvers and materials check
+    their arguments against (``choices("contact.*.law")``). KeyError for a key without choices."""
+    k = key(path)
+    if k.choices is None:
+        raise KeyError(f"scene key {path!r} has no list of choices")
+    return tuple(k.choices)

@@ -20,7 +20,7 @@ the body on one side), which covers flat dies, punches, die shoulders and rings.
 :class:`Torus` (the body outside each) and :class:`RevolvedProfile` (a :class:`Profile` drawn in the
 (rho, a) half-plane of an axis and revolved about it: g and the (rho, a) normal are the profile's,
 the normal turned back to 3-D).  Where the normal is not defined (the centre of a sphere, the axis of
-a cylinder, torus or revolved profile) it is guarded with _TINY as in the 2-D profile: a finite
+a cylinder, torus or revolved profile) it is guarded with TINY as in the 2-D profile: a finite
 vector, not 0/0.
 
 Penalty helpers: :func:`default_penalty` (eps = factor E / h) and :func:`contact_length_scale`
@@ -33,10 +33,9 @@ import math
 import numpy as np
 import ufl
 
-#: default normal penalty = PENALTY_FACTOR * E / h (chosen by measurement, see tests/test_contact.py:
-#: penetration < 1 % of the thickness, force change < 1 % for x10)
-PENALTY_FACTOR = 0.3
-_TINY = 1e-300          # sqrt(d.d + _TINY): a point exactly on a corner gives N = 0, not 0/0
+from fenics_plast.schema import PENALTY_FACTOR, default  # default normal penalty = PENALTY_FACTOR * E / h
+
+TINY = 1e-300          # sqrt(d.d + TINY): a point exactly on a corner gives N = 0, not 0/0
 
 
 def default_penalty(E, h, factor=PENALTY_FACTOR):
@@ -308,7 +307,7 @@ class Profile(Tool):
 
     name = "profile"
 
-    def __init__(self, segments, body_side="left", path=None, name=None):
+    def __init__(self, segments, body_side=default("tools.*.body_side"), path=None, name=None):
         super().__init__(name, path)
         if body_side not in ("left", "right"):
             raise ValueError(f"body_side must be 'left' or 'right', got {body_side!r}")
@@ -368,7 +367,7 @@ class Profile(Tool):
         """(g, N0, N1) with the nearest point at the piece's end e (0 start, 1 end)."""
         P, T = p["P"][e], p["T"][e]
         d = [y[0] - P[0], y[1] - P[1]]
-        dist = op.sqrt(op.dot(d, d) + _TINY)
+        dist = op.sqrt(op.dot(d, d) + TINY)
         n = self.side * np.array([-T[1], T[0]])
         s = p["sigma"][e] if p["sigma"][e] is not None else op.sign(op.dot(d, n))
         return (s * dist, s * d[0] / dist, s * d[1] / dist)
@@ -383,7 +382,7 @@ class Profile(Tool):
             return op.where(op.lt(s, 0.0), start, op.where(op.lt(p["L"], s), end, inner))
         c = p["c"]
         d = [y[0] - c[0], y[1] - c[1]]
-        rho = op.sqrt(op.dot(d, d) + _TINY)
+        rho = op.sqrt(op.dot(d, d) + TINY)
         k = p["kappa"]
         inner = (k * (rho - p["R"]), k * d[0] / rho, k * d[1] / rho)
         return op.where(op.ge(op.dot(d, p["m"]), p["cosb"] * rho), inner,
@@ -427,19 +426,19 @@ class Sphere(Tool):
 
     def gap(self, x, t):
         d = x - self._moved(self.center0, t)
-        dist = ufl.sqrt(ufl.dot(d, d) + _TINY)
+        dist = ufl.sqrt(ufl.dot(d, d) + TINY)
         return dist - self.radius, d / dist
 
     def gap_np(self, x, t):
         d = np.asarray(x, dtype=float)[:, :3] - (self.center0 + self.translation(t, use_ufl=False))
-        dist = np.sqrt(np.einsum("ij,ij->i", d, d) + _TINY)
+        dist = np.sqrt(np.einsum("ij,ij->i", d, d) + TINY)
         return dist - self.radius, d / dist[:, None]
 
 
 class _AxisTool(Tool):
     """A tool symmetric about the axis through ``center`` [mm] with direction ``axis`` (normalised):
     the axial coordinate a = (x - c) . e_a and the radial vector r = (x - c) - a e_a of a point,
-    rho = |r| (guarded: sqrt(r . r + _TINY), so e_rho = r / rho = 0 on the axis)."""
+    rho = |r| (guarded: sqrt(r . r + TINY), so e_rho = r / rho = 0 on the axis)."""
 
     dim = 3
 
@@ -454,14 +453,14 @@ class _AxisTool(Tool):
         e = ufl.as_vector([float(c) for c in self.axis])
         a = ufl.dot(y, e)
         r = y - a * e
-        return a, r, ufl.sqrt(ufl.dot(r, r) + _TINY)
+        return a, r, ufl.sqrt(ufl.dot(r, r) + TINY)
 
     def _axial_np(self, x, t):
         """numpy (a (n,), r (n, 3), rho (n,)) of the positions x (n, 3) at time t."""
         y = np.asarray(x, dtype=float)[:, :3] - (self.center0 + self.translation(t, use_ufl=False))
         a = y @ self.axis
         r = y - a[:, None] * self.axis
-        return a, r, np.sqrt(np.einsum("ij,ij->i", r, r) + _TINY)
+        return a, r, np.sqrt(np.einsum("ij,ij->i", r, r) + TINY)
 
 
 class Cylinder(_AxisTool):
@@ -490,7 +489,7 @@ class Torus(_AxisTool):
     ``radius`` r [mm] whose centre circle has ``ring_radius`` R [mm] in the plane a = 0; the body lies
     outside the tube.  The distance to the centre circle is d = sqrt((rho - R)^2 + a^2): g = d - r,
     N = ((rho - R) e_rho + a e_a) / d (the guarded e_rho is 0 on the axis, where g is still exact
-    and N is a e_a / d; on the centre circle N is guarded with _TINY)."""
+    and N is a e_a / d; on the centre circle N is guarded with TINY)."""
 
     name = "torus"
 
@@ -503,12 +502,12 @@ class Torus(_AxisTool):
     def gap(self, x, t):
         a, r, rho = self._axial_ufl(x, t)
         e = ufl.as_vector([float(c) for c in self.axis])
-        dist = ufl.sqrt((rho - self.ring_radius) ** 2 + a * a + _TINY)
+        dist = ufl.sqrt((rho - self.ring_radius) ** 2 + a * a + TINY)
         return dist - self.radius, ((rho - self.ring_radius) / dist) * (r / rho) + (a / dist) * e
 
     def gap_np(self, x, t):
         a, r, rho = self._axial_np(x, t)
-        dist = np.sqrt((rho - self.ring_radius) ** 2 + a * a + _TINY)
+        dist = np.sqrt((rho - self.ring_radius) ** 2 + a * a + TINY)
         return (dist - self.radius, ((rho - self.ring_radius) / dist / rho)[:, None] * r
                 + (a / dist)[:, None] * self.axis)
 
@@ -530,7 +529,7 @@ class RevolvedProfile(_AxisTool):
 
     name = "revolved_profile"
 
-    def __init__(self, segments, center, axis, body_side="left", path=None, name=None):
+    def __init__(self, segments, center, axis, body_side=default("tools.*.body_side"), path=None, name=None):
         super().__init__(center, axis, path=path, name=name)
         self.profile = Profile(segments, body_side=body_side)
         size = max(1.0, *(float(np.abs(q).max()) for p in self.profile.pieces for q in p["P"]))

@@ -15,7 +15,7 @@ from fenics_plast.errors import SceneError
 from fenics_plast.output import file_name_problem
 from fenics_plast.expressions import (ExpressionError, check_output_expression, check_times, parse_expression,
                                       parse_value)
-from fenics_plast.schema import (OPTIONAL, REQUIRED, SCHEMA, SECTIONS, US, Key, Table, _VALUE_DOC, _num,
+from fenics_plast.schema import (OPTIONAL, REQUIRED, SCHEMA, SECTIONS, US, Key, Table, VALUE_DOC, number_text,
                                   component_names, is_cell_count, vector_size)
 
 __all__ = ["Section", "validate_tables"]
@@ -77,7 +77,7 @@ def _fmt(v) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, float):
-        return _num(v)
+        return number_text(v)
     if isinstance(v, dict):
         return "{" + ", ".join(f"{k} = {_fmt(x)}" for k, x in v.items()) + "}"
     if isinstance(v, list):
@@ -87,8 +87,8 @@ def _fmt(v) -> str:
 
 _TYPE_TEXT = {"str": "a string", "int": "an integer", "float": "a number", "bool": "true or false",
               "floats": "a list of numbers", "strs": "a list of strings (or one string)",
-              "vector": "a list of 2 numbers [x, y] (3 in 3-D: [x, y, z])", "value": _VALUE_DOC,
-              "values": "a value or a list of values, each " + _VALUE_DOC,
+              "vector": "a list of 2 numbers [x, y] (3 in 3-D: [x, y, z])", "value": VALUE_DOC,
+              "values": "a value or a list of values, each " + VALUE_DOC,
               "segments": "a list of inline tables { line = ... } or { arc = ..., radius = ..., from = ..., to = ... }",
               "path": "an inline table { t = [...], x = [...], y = [...] } (and z = [...] in 3-D)"}
 
@@ -159,7 +159,7 @@ class _Validator:
 
     def values(self, dotted: str, key: Key, v):
         """A value spec or a list of them (one per component); expressions in x, y, z, t. Times of
-        explicit analyses are in µs in the file: the value's t is scaled to seconds by the runner."""
+        explicit analyses are in µs in the file: the value's t is scaled to seconds by ``build.time_function``."""
         items = v if (key.type == "values" and isinstance(v, list)) else [v]
         if not items:
             self.fail(f"{dotted} = []: must be {_TYPE_TEXT[key.type]}")
@@ -588,7 +588,7 @@ def _before_run_checks(t: dict[str, Any], v: _Validator):
     """What the scene alone tells about the run (issue 21): cell counts, one condition per component
     of a group, reactions only where a condition holds, explicit motions and loads uniform, and every
     value of t finite over the analysis (:func:`check_times` from 0 to :func:`analysis_end`). What
-    needs the mesh (values of x, y, z, symmetry groups) is checked by ``runner.read_mesh``."""
+    needs the mesh (values of x, y, z, symmetry groups) is checked by ``scene_mesh.read_mesh``."""
     explicit, geometry = t["analysis"].type == "explicit", t["mesh"].geometry
     for k, x in t["mesh"].parameters.items():
         if is_cell_count(k) and not (float(x).is_integer() and x >= 1):

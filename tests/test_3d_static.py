@@ -25,7 +25,7 @@ from mpi4py import MPI
 from fenics_plast.errors import SceneError
 from fenics_plast.material.point import uniaxial_stress
 from fenics_plast.problem import load_problem
-from fenics_plast.runner import material_of
+from fenics_plast.build import material_of
 
 from scene_runs import ROOT, history, run_scene
 

@@ -22,10 +22,11 @@ from mpi4py import MPI
 
 from scene_runs import FP
 
-from fenics_plast.contact import FlatWall, PenaltyContact
+from fenics_plast.contact import PenaltyContact
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Material
 from fenics_plast.solvers.static import StaticSolver
+from fenics_plast.tools import Plane, piecewise_path
 
 ROOT = Path(__file__).resolve().parent.parent
 PY = sys.executable
@@ -34,7 +35,7 @@ EPS = 1e4          # normal and tangential penalty of the block tests [N/mm^3]
 D = 0.01           # compression of the block by the wall [mm]
 
 
-def block(law, mu=MU, sx=0.05, nx=4, ny=2, path=None):
+def block(law, mu=MU, sx=0.05, nx=4, ny=2):
     """Elastic 2 x 1 block (plane strain), top fixed; the wall z = 0 moves up by D (lam 0 -> 0.5),
     then sideways by sx (lam 0.5 -> 1)."""
     comm = MPI.COMM_WORLD
@@ -52,8 +53,7 @@ def block(law, mu=MU, sx=0.05, nx=4, ny=2, path=None):
                      verbose=False)
     s.add_dirichlet(0, ft, 2, 0.0)
     s.add_dirichlet(1, ft, 2, 0.0)
-    wall = FlatWall(point=(0.0, 0.0), normal=(0.0, 1.0),
-                    path=path or [(0.0, 0.0, 0.0), (0.5, 0.0, D), (1.0, sx, D)])
+    wall = Plane((0.0, 0.0), (0.0, 1.0), path=piecewise_path([0.0, 0.5, 1.0], [0.0, 0.0, sx], [0.0, D, D]))
     c = PenaltyContact(s, EPS, friction=mu, law=law)
     pair = c.add_tool(wall, ft, 1)
     c.attach()

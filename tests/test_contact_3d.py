@@ -1,5 +1,5 @@
 """Penalty contact with friction in 3-D (hexahedra): static (fenics_plast.contact) and explicit
-(fenics_plast.solvers.explicit_contact, time_integration.contact_forces_3d).
+(fenics_plast.solvers.explicit_contact, contact_kernels.contact_forces_3d).
 
 Static: an elastic block pressed by a rigid plane in uniaxial strain (rollers on the sides), the
 contact force against the closed form with the penalty's compliance; a block pressed and then
@@ -28,7 +28,7 @@ from mpi4py import MPI
 from fenics_plast.contact import PenaltyContact
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Material
-from fenics_plast.solvers import time_integration as ti
+from fenics_plast.solvers import contact_kernels as ck
 from fenics_plast.solvers.explicit_contact import _tool_kind
 from fenics_plast.solvers.static import StaticSolver
 from fenics_plast.tools import Cylinder, Plane, RevolvedProfile, Sphere, Torus, piecewise_path
@@ -190,14 +190,14 @@ def _kernel(u, du, X, tools, kinds, params, gN, laws, trans, mu=0.3, steps=1):
     hist = [np.full((n, d), 0.3), np.tile(np.eye(d)[-1], (n, 1)), np.full(n, 50.0), np.zeros(n), np.zeros(n)]
     fc, acc, pen, fcon = np.zeros((n, d)), np.zeros((npair, 2 + d)), np.zeros(npair), np.zeros(d * n)
     for _ in range(steps):
-        ti.contact_forces(u, du, 1e-3, X, dofs, cpair, np.full(n, 0.7), np.asarray(kinds, np.int64),
+        ck.contact_forces(u, du, 1e-3, X, dofs, cpair, np.full(n, 0.7), np.asarray(kinds, np.int64),
                           np.asarray(params, dtype=float), np.full(npair, 1e3), np.full(npair, 2e3),
                           np.full(npair, mu), np.asarray(laws, np.int64), gN, *hist, fc, acc, pen,
                           trans[0], trans[1], fcon)
     return fcon, hist, fc, acc, pen
 
 
-@pytest.mark.parametrize("law", [ti.COULOMB, ti.QUASI_COULOMB])
+@pytest.mark.parametrize("law", [ck.COULOMB, ck.QUASI_COULOMB])
 def test_compiled_3d_gaps_match_gap_np(law):
     """PLANE, SPHERE, CYLINDER, TORUS compiled == GENERIC with the tools' gap_np (forces, history,
     energies, impulses)."""
@@ -214,7 +214,7 @@ def test_compiled_3d_gaps_match_gap_np(law):
     t0, t1 = 0.1, 0.2
     trans = np.array([[tool.translation(t, use_ufl=False) for tool in tools] for t in (t0, t1)])
     kp = [_tool_kind(tool) for tool in tools]
-    assert [k for k, _ in kp] == [ti.PLANE, ti.SPHERE, ti.CYLINDER, ti.TORUS]
+    assert [k for k, _ in kp] == [ck.PLANE, ck.SPHERE, ck.CYLINDER, ck.TORUS]
     x = X + u.reshape(-1, 3)
     cpair = np.arange(n) % len(tools)
     gN = np.zeros((n, 4))
@@ -224,16 +224,16 @@ def test_compiled_3d_gaps_match_gap_np(law):
         assert (g < 0).sum() > 5 and (g > 0).sum() > 5
     laws = [law] * len(tools)
     compiled = _kernel(u, du, X, tools, [k for k, _ in kp], [p for _, p in kp], np.zeros((n, 4)), laws, trans)
-    generic = _kernel(u, du, X, tools, [ti.GENERIC] * 4, np.zeros((4, 8)), gN, laws, trans)
+    generic = _kernel(u, du, X, tools, [ck.GENERIC] * 4, np.zeros((4, 8)), gN, laws, trans)
     for a, b in zip(compiled, generic):
         for aa, bb in zip(a if isinstance(a, list) else [a], b if isinstance(b, list) else [b]):
             np.testing.assert_allclose(aa, bb, rtol=1e-12, atol=1e-12 * max(np.abs(bb).max(), 1.0))
     fcon, hist, fc, acc, pen = compiled
     t = hist[0]
     # tangential tractions in the tangent plane, within the Coulomb bound, slip where they sit on it
-    plane_normal = hist[1] if law == ti.COULOMB else np.broadcast_to([0.0, 0.0, 1.0], t.shape)  # quasi: old N
+    plane_normal = hist[1] if law == ck.COULOMB else np.broadcast_to([0.0, 0.0, 1.0], t.shape)  # quasi: old N
     assert np.abs(np.einsum("ij,ij->i", t, plane_normal)).max() < 1e-12 * np.abs(t).max()
-    bound = 0.3 * (hist[2] if law == ti.COULOMB else 50.0 * (gN[:, 0] < 0))
+    bound = 0.3 * (hist[2] if law == ck.COULOMB else 50.0 * (gN[:, 0] < 0))
     assert np.all(hist[3] <= bound * (1 + 1e-12) + 1e-300)
     on = hist[4] > 0
     assert on.sum() > 10 and np.allclose(hist[3][on], bound[on], rtol=1e-12)
@@ -251,9 +251,9 @@ def test_3d_kernel_in_the_xy_plane_equals_the_2d_kernel():
           np.array([0.2, -1.0, 0.9, 0, 0, 0, 0, 0])]
     p3 = [np.array([0.1, -0.2, 0.0, *Plane((0, 0, 0), (0.3, 1.0, 0.0)).normal, 0, 0]),
           np.array([0.2, -1.0, 0.0, 0.0, 0.0, 1.0, 0.9, 0])]              # cylinder about z == circle
-    for law in (ti.COULOMB, ti.QUASI_COULOMB):
+    for law in (ck.COULOMB, ck.QUASI_COULOMB):
         out = []
-        for X, kinds, params, d in ((X2, [ti.PLANE, ti.CIRCLE], p2, 2), (X3, [ti.PLANE, ti.CYLINDER], p3, 3)):
+        for X, kinds, params, d in ((X2, [ck.PLANE, ck.CIRCLE], p2, 2), (X3, [ck.PLANE, ck.CYLINDER], p3, 3)):
             r = np.random.default_rng(7)
             dofs = np.arange(d * n, dtype=np.int64).reshape(n, d)
             cpair = (np.arange(n) % 2).astype(np.int64)
@@ -270,7 +270,7 @@ def test_3d_kernel_in_the_xy_plane_equals_the_2d_kernel():
                 tr = np.zeros((2, 2, d))
                 tr[1, :, :2] = r.uniform(-0.01, 0.01, (2, 2))
                 fcon = np.zeros(d * n)
-                ti.contact_forces(u, du, 1e-3, np.ascontiguousarray(X), dofs, cpair, np.full(n, 0.7),
+                ck.contact_forces(u, du, 1e-3, np.ascontiguousarray(X), dofs, cpair, np.full(n, 0.7),
                                   np.array(kinds, np.int64), np.array(params), np.array([1e3, 2e3]),
                                   np.array([2e3, 1e3]), np.array([0.3, 0.2]), np.array([law, law], np.int64),
                                   *st, tr[0], tr[1], fcon)
@@ -301,7 +301,8 @@ def test_explicit_block_slides_on_plane():
     vt, vz = 5e3, -1e3                                                  # mm/s
     direction = np.array([math.cos(a), math.sin(a), 0.0])
     s.set_velocity(tuple(vt * direction + [0.0, 0.0, vz]))
-    pair = s.add_contact(Plane((0.0, 0.0, -1e-7), (0.0, 0.0, 1.0)), ft, BOTTOM, penalty=2e5, friction=MU)
+    pair = s.add_contact(Plane((0.0, 0.0, -1e-7), (0.0, 0.0, 1.0)), ft, BOTTOM, penalty=2e5, friction=MU,
+                         law="coulomb")
     assert s.contact.chunkable
 
     def momentum():

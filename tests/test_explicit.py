@@ -19,7 +19,7 @@ from fenics_plast.problem import load_problem
 from fenics_plast.quantities import Quantities
 from fenics_plast.runner_explicit import build_explicit
 from fenics_plast.solvers.explicit import ExplicitDynamics
-from fenics_plast.solvers.time_integration import quad_min_size
+from fenics_plast.solvers.quad_step import quad_min_size
 from scene_runs import needs_mpirun, serial_and_two_ranks
 
 REPO = Path(__file__).resolve().parent.parent

@@ -1,7 +1,7 @@
-"""Contact in explicit analyses (fenics_plast.solvers.explicit_contact, time_integration.contact_forces).
+"""Contact in explicit analyses (fenics_plast.solvers.explicit_contact, contact_kernels.contact_forces).
 
 Small elastic bars (2 x 10 mm, a few cells, axisymmetric and plane strain) flying onto a rigid
-FlatWall at low speed, against closed forms: the energy balance KE + W_int + E_c = KE0, the wall's
+plane (tools.Plane) at low speed, against closed forms: the energy balance KE + W_int + E_c = KE0, the wall's
 impulse equals the momentum change, the elastic bar rebounds after 2 L / c with the 1-D contact
 force rho c v0 A; a bar at rest on a wall stays at rest; a sliding bar's tangential force is mu
 times its normal force; compiled and Python gaps, the fused and the UFL route, chunked and
@@ -25,13 +25,12 @@ from mpi4py import MPI
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from fenics_plast.contact import FlatWall  # noqa: E402
 from fenics_plast.kinematics import Kinematics  # noqa: E402
 from fenics_plast.material import Hardening, Material  # noqa: E402
 from fenics_plast.meshing import bar_mesh  # noqa: E402
-from fenics_plast.solvers import time_integration as ti  # noqa: E402
+from fenics_plast.solvers import contact_kernels as ck  # noqa: E402
 from fenics_plast.solvers.explicit import ExplicitDynamics  # noqa: E402
-from fenics_plast.tools import Circle, Plane  # noqa: E402
+from fenics_plast.tools import Circle, Plane, piecewise_path  # noqa: E402
 
 E, RHO, R, L = 200e3, 7.8e-9, 2.0, 10.0        # MPa, tonne/mm^3, mm, mm
 SERIAL = MPI.COMM_WORLD.size == 1
@@ -90,19 +89,19 @@ def test_compiled_gaps_match_gap_np():
     dofs = np.arange(2 * n, dtype=np.int64).reshape(n, 2)
     tools = [Plane((0.1, -0.2), (0.3, 1.0), path=lambda t, use_ufl: (0.5 * t, -t)),
              Circle((0.2, -1.0), 0.9, path=lambda t, use_ufl: (t, 2 * t))]
-    for tool, kind, params in ((tools[0], ti.PLANE, [0.1, -0.2, *tools[0].normal]),
-                               (tools[1], ti.CIRCLE, [0.2, -1.0, 0.9, 0.0])):
+    for tool, kind, params in ((tools[0], ck.PLANE, [0.1, -0.2, *tools[0].normal]),
+                               (tools[1], ck.CIRCLE, [0.2, -1.0, 0.9, 0.0])):
         t0, t1 = 0.1, 0.2
         tr = np.array([[tool.translation(t0, use_ufl=False)], [tool.translation(t1, use_ufl=False)]])
         g, N = tool.gap_np(X + u.reshape(-1, 2), t1)
         assert (g < 0).sum() > 5 and (g > 0).sum() > 5
         out = []
-        for k, gN in ((kind, np.zeros((n, 3))), (ti.GENERIC, np.column_stack([g, N]))):
+        for k, gN in ((kind, np.zeros((n, 3))), (ck.GENERIC, np.column_stack([g, N]))):
             hist = [np.full((n, 2), 0.3), np.tile([0.0, 1.0], (n, 1)), np.full(n, 50.0), np.zeros(n), np.zeros(n)]
             fc, acc, pen, fcon = np.zeros((n, 2)), np.zeros((1, 4)), np.zeros(1), np.zeros(2 * n)
-            ti.contact_forces(u, du, 1e-3, X, dofs, np.zeros(n, np.int64), np.full(n, 0.7), np.array([k]),
+            ck.contact_forces(u, du, 1e-3, X, dofs, np.zeros(n, np.int64), np.full(n, 0.7), np.array([k]),
                               np.array([params], dtype=float), np.array([1e3]), np.array([2e3]), np.array([0.3]),
-                              np.array([ti.COULOMB]), gN, *hist, fc, acc, pen, tr[0], tr[1], fcon)
+                              np.array([ck.COULOMB]), gN, *hist, fc, acc, pen, tr[0], tr[1], fcon)
             out.append((fcon.copy(), acc.copy(), pen.copy()))
         for a, b in zip(*out):
             np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())
@@ -116,7 +115,7 @@ def test_elastic_bar_bounces_off_wall(geometry):
     s, ft, tags = bar(geometry)
     v0 = 1e3                                                        # mm/s
     s.set_velocity((0.0, -v0))
-    pair = s.add_contact(FlatWall(), ft, tags["bottom"], penalty=2e5)
+    pair = s.add_contact(Plane(), ft, tags["bottom"], penalty=2e5)
     c = math.sqrt(E / RHO)
     rows = []
     s.initialize()
@@ -145,13 +144,13 @@ def test_bar_at_rest_on_wall_stays_at_rest():
     own weight (nodal forces -m_i g) it stays put to the static settlement, and the wall carries
     the weight on average (impulse / time)."""
     s, ft, tags = bar("axisymmetric", nz=10)
-    pair = s.add_contact(FlatWall(), ft, tags["bottom"], penalty=2e5, friction=0.3)
+    pair = s.add_contact(Plane(), ft, tags["bottom"], penalty=2e5, friction=0.3, law="coulomb")
     s.run(2e-6, progress=0)
     assert s.step_count > 10
     assert np.abs(s.u.x.array).max() < 1e-12 and np.abs(pair.force()).max() < 1e-9     # round-off
     # under gravity, for about 5 wave round trips
     s, ft, tags = bar("axisymmetric", nz=10)
-    pair = s.add_contact(FlatWall(), ft, tags["bottom"], penalty=2e5, friction=0.3)
+    pair = s.add_contact(Plane(), ft, tags["bottom"], penalty=2e5, friction=0.3, law="coulomb")
     g = 9.81e3                                                       # mm/s^2
     weight = np.zeros(s.n_own)
     weight[1::2] = -g * s.mass[1::2]
@@ -174,7 +173,7 @@ def test_sliding_bar_friction_is_mu_times_normal_force(law):
     mu, vx, vy = 0.3, 5e3, -1e3
     s, ft, tags = bar("plane_strain", nu=0.3, axis_bc=False)
     s.set_velocity((vx, vy))
-    pair = s.add_contact(FlatWall(), ft, tags["bottom"], penalty=2e5, friction=mu, law=law)
+    pair = s.add_contact(Plane(), ft, tags["bottom"], penalty=2e5, friction=mu, law=law)
     checked = []
 
     def on_row(so, t):
@@ -205,7 +204,7 @@ def test_moving_wall_pushes_bar():
     KE + W_int + E_c = W_tool, impulse = momentum."""
     s, ft, tags = bar("axisymmetric", nu=0.3)
     V, T = 1e3, 4e-6
-    wall = FlatWall(point=(0.0, -1e-6), path=[(0.0, 0.0, 0.0), (T, 0.0, V * T)])
+    wall = Plane(point=(0.0, -1e-6), path=piecewise_path([0.0, T], [0.0, 0.0], [0.0, V * T]))
     pair = s.add_contact(wall, ft, tags["bottom"], penalty=2e5)
     s.run(T, rows=5, progress=0)
     e = s.energies()
@@ -224,7 +223,7 @@ def test_routes_and_gaps_agree(variant):
         if variant == "circle":
             tool = Circle((0.0, -30.0), 30.0, path=lambda t, use_ufl: (0.0, 1e3 * t))
         else:
-            tool = FlatWall(path=[(0.0, 0.0, 0.0), (1e-5, 0.01, 0.005)])
+            tool = Plane(path=piecewise_path([0.0, 1e-5], [0.0, 0.01], [0.0, 0.005]))
         pair = s.add_contact(PythonGap(tool) if python_gap else tool, ft, tags["bottom"], penalty=2e5,
                              friction=0.2, law="quasi-coulomb")
         s.run(4e-6, rows=3, progress=0)
@@ -249,8 +248,8 @@ def test_checkpoint_resume_with_contact_and_drivers():
     def make():
         s, ft, tags = bar("axisymmetric", nu=0.3, nz=10, plastic=True, comm=MPI.COMM_SELF)
         s.set_velocity((0.0, -10e3))
-        s.add_contact(FlatWall(path=[(0.0, 0.0, 0.0), (1e-5, 0.01, 0.0)]), ft, tags["bottom"], penalty=2e5,
-                      friction=0.2, law="coulomb")
+        wall = Plane(path=piecewise_path([0.0, 1e-5], [0.0, 0.01], [0.0, 0.0]))
+        s.add_contact(wall, ft, tags["bottom"], penalty=2e5, friction=0.2, law="coulomb")
         k = s.add_prescribed_velocity(1, s.boundary_dofs(ft.find(tags["top"])), lambda t: -10e3 + 1e9 * t)
         s.add_traction(ft, tags["outer"], (lambda t: -2.0 * t / 1e-6, 0.0))
         return s, k
@@ -283,11 +282,11 @@ def test_penalty_enters_the_stable_step():
     the element's runs stable at dt_safety 0.8 (the plain minimum of the two does not)."""
     s, ft, tags = bar("axisymmetric", nz=10)
     dte = s.stable_dt()
-    probe = s.add_contact(FlatWall(), ft, tags["bottom"], penalty=1.0)
+    probe = s.add_contact(Plane(), ft, tags["bottom"], penalty=1.0)
     eps = (probe.dt_stable / dte) ** 2                              # dt_c = dt_e
     s, ft, tags = bar("axisymmetric", nz=10)
     s.set_velocity((0.0, -1e3))
-    pair = s.add_contact(FlatWall(), ft, tags["bottom"], penalty=eps)
+    pair = s.add_contact(Plane(), ft, tags["bottom"], penalty=eps)
     assert pair.dt_stable == pytest.approx(dte, rel=1e-9)
     assert s.stable_dt() == pytest.approx(dte / math.sqrt(2.0), rel=1e-9)
     s.run(2.5 * L / math.sqrt(E / RHO), dt_safety=0.8, progress=0)
@@ -297,14 +296,14 @@ def test_penalty_enters_the_stable_step():
 def test_contact_arguments_are_validated():
     s, ft, tags = bar("plane_strain", nz=4)
     with pytest.raises(ValueError, match="law"):
-        s.add_contact(FlatWall(), ft, tags["bottom"], penalty=1e3, law="sticky")
+        s.add_contact(Plane(), ft, tags["bottom"], penalty=1e3, law="sticky")
     with pytest.raises(ValueError, match="penalty"):
-        s.add_contact(FlatWall(), ft, tags["bottom"], penalty=0.0)
+        s.add_contact(Plane(), ft, tags["bottom"], penalty=0.0)
     with pytest.raises(ValueError, match="no facets"):
-        s.add_contact(FlatWall(), ft, 999, penalty=1e3)
+        s.add_contact(Plane(), ft, 999, penalty=1e3)
     s.initialize()
     with pytest.raises(RuntimeError, match="before the first step"):
-        s.add_contact(FlatWall(), ft, tags["bottom"], penalty=1e3)
+        s.add_contact(Plane(), ft, tags["bottom"], penalty=1e3)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -316,8 +315,8 @@ def mpi_case(comm=MPI.COMM_WORLD):
     traction on its side; returns (positions, displacements) on rank 0 and the scalars."""
     s, ft, tags = bar("axisymmetric", nu=0.3, nz=12, comm=comm, plastic=True)
     s.set_velocity((0.0, -20e3))
-    pair = s.add_contact(FlatWall(path=[(0.0, 0.0, 0.0), (1e-5, 0.02, 0.0)]), ft, tags["bottom"], penalty=2e5,
-                         friction=0.2, law="coulomb")
+    wall = Plane(path=piecewise_path([0.0, 1e-5], [0.0, 0.02], [0.0, 0.0]))
+    pair = s.add_contact(wall, ft, tags["bottom"], penalty=2e5, friction=0.2, law="coulomb")
     k = s.add_prescribed_velocity(1, s.boundary_dofs(ft.find(tags["top"])), -20e3)
     s.add_traction(ft, tags["outer"], (-5.0, 0.0))
     s.run(5e-6, rows=3, progress=0)

@@ -34,7 +34,7 @@ from fenics_plast.problem import load_problem
 from fenics_plast.runner_explicit import build_explicit, fields_guard, nonfinite_guard
 from fenics_plast.solvers import fused_force
 from fenics_plast.solvers.collapse import CellFold
-from fenics_plast.solvers.time_integration import STEP_FOLDS
+from fenics_plast.solvers.integrator import STEP_FOLDS
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from conftest import nonfinite_problems  # noqa: E402

@@ -252,7 +252,7 @@ def test_element_step_of_a_rectangle_and_a_sliver():
     eigenvalues of the element written here with numpy (plane strain, full integration, 2 x 2 Gauss,
     lumped mass): the reference rectangle and a flattened axis cell of the 400 m/s bar, whose size
     estimate h / c (the altitude at its 179.9 degree corner) is 40 x below its element's step."""
-    from fenics_plast.solvers.time_integration import _quad_eig_dt, quad_min_size
+    from fenics_plast.solvers.quad_step import quad_eig_dt, quad_min_size
 
     def element_dt(P):                         # numpy: plane strain, full integration, lumped mass
         g = 1 / math.sqrt(3)
@@ -276,8 +276,8 @@ def test_element_step_of_a_rectangle_and_a_sliver():
               [[0.0, 0.0779], [3.4152, 0.0396], [2.9942, 0.0528], [0.0, 0.1426]]):   # a 400 m/s axis cell
         P = np.array(P, float)
         ref, m = element_dt(P)
-        out = _quad_eig_dt(P, np.arange(4).reshape(1, 4), np.array([0]), m[None], np.array([LAM]),
-                           np.array([MU]), False, False, np.empty(1))
+        out = quad_eig_dt(P, np.arange(4).reshape(1, 4), np.array([0]), m[None], np.array([LAM]),
+                          np.array([MU]), False, False, np.empty(1))
         assert out[0] == pytest.approx(ref, rel=1e-12)
     assert quad_min_size(P[None])[0] / C < ref / 40
 

@@ -393,7 +393,7 @@ specific_heat = 383.0"""
 
 def test_scene_keys_are_validated(tmp_path):
     from fenics_plast.problem import load_problem
-    from fenics_plast.runner import material_of
+    from fenics_plast.build import material_of
     p = load_problem(_scene(tmp_path, JC_KEYS), [])
     mat = material_of(p.materials["cu"])
     assert mat.thermal and mat.initial_temperature == 294.0

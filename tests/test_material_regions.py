@@ -220,7 +220,7 @@ def test_lumped_mass_and_stable_step_per_material():
 
 
 def test_default_contact_penalty_uses_the_material_along_the_group():
-    from fenics_plast.runner import contact_modulus
+    from fenics_plast.build import contact_modulus
     mesh, ft, groups, cells, n = two_region_mesh()
     mats = MaterialRegions([(COPPER, cells["lower"]), (STEEL, cells["upper"])], n)
     E = {g: contact_modulus(mats, mesh, ft, groups[g][1]) for g in ("bottom", "top", "left")}

@@ -117,18 +117,18 @@ def test_a_node_in_two_pairs_has_both_springs_in_the_stable_step():
     """The corner of face and side, in a pair of each: 2 sqrt(m / (eps (A_face + A_side)))."""
     from mpi4py import MPI
 
-    from fenics_plast.contact import FlatWall
     from fenics_plast.kinematics import Kinematics
     from fenics_plast.material import Material
     from fenics_plast.meshing import bar_mesh
     from fenics_plast.solvers.explicit import ExplicitDynamics
+    from fenics_plast.tools import Plane
 
     mesh, _, ft, tags = bar_mesh(MPI.COMM_SELF, 3.2, 10.0, 3, 6)
     s = ExplicitDynamics(mesh, Kinematics(mesh, "axisymmetric"), Material(117e3, 0.35), 8.93e-9,
                          [(0, ft.find(tags["axis"]))], log=lambda m: None)
     eps = 1e6
-    face = s.add_contact(FlatWall(), ft, tags["bottom"], penalty=eps)
-    side = s.add_contact(FlatWall(), ft, tags["outer"], penalty=eps)
+    face = s.add_contact(Plane(), ft, tags["bottom"], penalty=eps)
+    side = s.add_contact(Plane(), ft, tags["outer"], penalty=eps)
     corner = lambda p: int(np.flatnonzero(np.isclose(p.X[:, 0], 3.2) & np.isclose(p.X[:, 1], 0.0))[0])
     i, j = corner(face), corner(side)
     assert face.dofs[i, 0] == side.dofs[j, 0]

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from fenics_plast.schema import default
+
 from . import kernels
 from .hardening import Hardening
 from .regions import MaterialRegions
@@ -34,13 +36,13 @@ class Material(AllocatingUpdates):
     E, nu : Young's modulus [MPa] and Poisson's ratio.
     hardening : :class:`Hardening` or None (None: hyperelastic, no plasticity).
     model : "isochoric" (exponential map on the logarithmic elastic strain, plastically
-        incompressible; the default) or "seed" (Almansi strain, additive update of b_e^-1,
-        seed eqs. 9-14).
+        incompressible) or "seed" (Almansi strain, additive update of b_e^-1, seed eqs. 9-14); the
+        default is the schema's ``materials.<name>.model``.
     yield_tol : relative tolerance on f > 0 that counts as yielding.
     """
 
-    def __init__(self, E: float, nu: float, hardening: Hardening | None = None, model: str = "isochoric",
-                 yield_tol: float = 1e-12):
+    def __init__(self, E: float, nu: float, hardening: Hardening | None = None,
+                 model: str = default("materials.*.model"), yield_tol: float = 1e-12):
         if not E > 0:
             raise ValueError(f"E must be > 0, got {E}")
         if not -1.0 < nu < 0.5:

@@ -35,6 +35,8 @@ import math
 import numba
 import numpy as np
 
+from fenics_plast.schema import default
+
 LINEAR, SWIFT, VOCE, TABLE, JOHNSON_COOK = 0, 1, 2, 3, 4
 _CODES = {"linear": LINEAR, "swift": SWIFT, "voce": VOCE, "table": TABLE, "johnson_cook": JOHNSON_COOK}
 # Johnson-Cook parameter positions
@@ -129,10 +131,12 @@ class Hardening:
     >>> Hardening("table", strain=[0, 0.1, 1.0], stress=[200, 300, 400])
     >>> Hardening("johnson_cook", A=90.0, B=292.0, n=0.31, C=0.025, reference_strain_rate=1.0, m=1.09,
     ...           melting_temperature=1356.0, room_temperature=294.0, specific_heat=383.0,
-    ...           density=8.96e-9)        # taylor_quinney=0.9, initial_temperature=room by default
+    ...           density=8.96e-9)        # taylor_quinney, initial_temperature (= room) by default
 
     Johnson-Cook: rates in 1/s, temperatures in K, specific heat in J/(kg K), density in
     tonne/mm^3; ``thermal`` is True and ``initial_temperature`` [K] the temperature of a virgin point.
+    Parameters left out take the schema's defaults (``materials.<name>.hardening.*``,
+    :func:`fenics_plast.schema.default`).
     """
 
     def __init__(self, law: str, **kw):
@@ -141,16 +145,17 @@ class Hardening:
         self.law = law
         self.code = _CODES[law]
         if law == "linear":
-            params = [kw["yield_stress"], kw.get("modulus", 0.0)]
+            params = [kw["yield_stress"], kw.get("modulus", default("materials.*.hardening.modulus"))]
         elif law == "swift":
             params = [kw["K"], kw["eps0"], kw["n"]]
         elif law == "voce":
-            params = [kw["yield_stress"], kw["Q"], kw["b"], kw.get("modulus", 0.0)]
+            params = [kw["yield_stress"], kw["Q"], kw["b"], kw.get("modulus", default("materials.*.hardening.modulus"))]
         elif law == "johnson_cook":
             t_room, t_melt = float(kw["room_temperature"]), float(kw["melting_temperature"])
             t0 = kw.get("initial_temperature")
             t0 = t_room if t0 is None else float(t0)
-            beta, rho, cp = float(kw.get("taylor_quinney", 0.9)), float(kw["density"]), float(kw["specific_heat"])
+            beta = float(kw.get("taylor_quinney", default("materials.*.hardening.taylor_quinney")))
+            rho, cp = float(kw["density"]), float(kw["specific_heat"])
             if not t_melt > t_room:
                 raise ValueError(f"johnson_cook: melting_temperature {t_melt} K must exceed room_temperature "
                                  f"{t_room} K")

@@ -25,12 +25,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from fenics_plast import dolfinx_compat as dc
-from fenics_plast.solvers import hex_step
-from fenics_plast.solvers import time_integration as ti
-from fenics_plast.solvers.time_integration import _quad_min_size
-
-# basix vertex order of a quadrilateral is tensor-product (0,0) (1,0) (0,1) (1,1); cyclic order:
-_QUAD_CYCLE = np.array([0, 1, 3, 2])
+from fenics_plast.solvers import hex_step, quad_step
 
 
 class CellSteps:
@@ -47,7 +42,7 @@ class CellSteps:
             h = hex_step.hex_size(self._xbuf, self._cell_dofs, self._hbuf)
             np.multiply(h, self._hex_kappa, out=h)
         else:
-            h = _quad_min_size(self._xbuf, self._cell_dofs, self._hbuf)
+            h = quad_step.quad_size(self._xbuf, self._cell_dofs, self._hbuf)
         np.divide(h, self.c if self._cell_c is None else self._cell_c, out=h)
         if self.mass_scaled:
             np.multiply(h, self._sqrt_scale, out=h)
@@ -57,15 +52,15 @@ class CellSteps:
 
     def _eig_dt(self, cells):
         """2 / omega_max of the elastic elements of ``cells`` (owned indices) in their current shape,
-        with their (scaled) share of the lumped mass [s] (:func:`time_integration._quad_eig_dt`);
+        with their (scaled) share of the lumped mass [s] (:func:`quad_step.quad_eig_dt`);
         call after :meth:`_size_dt` (node positions)."""
         cells = np.ascontiguousarray(cells, dtype=np.int64)
         if self.three_d:
             out = hex_step.hex_eig_dt(self._xbuf, self._cell_dofs, cells, self._mass_cyc, self._lam_c, self._mu_c,
                                       self.element == "q1p0")
             return out * self._sqrt_scale[cells]
-        out = ti._quad_eig_dt(self._xbuf, self._cell_dofs, cells, self._mass_cyc, self._lam_c, self._mu_c,
-                              self.kin.axisymmetric, self.element == "q1p0", np.empty(cells.size))
+        out = quad_step.quad_eig_dt(self._xbuf, self._cell_dofs, cells, self._mass_cyc, self._lam_c, self._mu_c,
+                                    self.kin.axisymmetric, self.element == "q1p0", np.empty(cells.size))
         return out * self._sqrt_scale[cells]
 
     def cell_dt(self, below=math.inf):
@@ -92,8 +87,9 @@ class CellSteps:
             best, arg = hex_step.hex_lazy_min(d, self._xbuf, self._cell_dofs, self._mass_cyc, self._lam_c,
                                               self._mu_c, self._sqrt_scale, self.element == "q1p0")
             return float(best), int(arg)
-        best, arg = ti._lazy_min(d, np.argsort(d), self._xbuf, self._cell_dofs, self._mass_cyc, self._lam_c,
-                                 self._mu_c, self._sqrt_scale, self.kin.axisymmetric, self.element == "q1p0")
+        best, arg = quad_step.quad_lazy_min(d, np.argsort(d), self._xbuf, self._cell_dofs, self._mass_cyc,
+                                            self._lam_c, self._mu_c, self._sqrt_scale, self.kin.axisymmetric,
+                                            self.element == "q1p0")
         return float(best), int(arg)
 
     def stable_dt(self):
@@ -107,7 +103,7 @@ class CellSteps:
         to 0 while the cell is a sound triangle: 0.12 ns against 4.9 ns for the element's own step
         in the 400 m/s Taylor bar at 25 us); with "element" the element's step is taken where it is
         larger, computed only for the few cells whose size estimate is below the minimum found
-        (:func:`time_integration._lazy_min`): where the smallest size estimate is at or below its
+        (:func:`quad_step.quad_lazy_min`): where the smallest size estimate is at or below its
         cell's element step, the result is the size estimate's. With contact pairs combined with the
         smallest penalty-spring limit dt_c = min 2 sqrt(m_i / (eps A_i)) of the contact nodes as
         1 / sqrt(1 / dt^2 + 1 / dt_c^2) (explicit_contact.py). Collective."""
@@ -144,7 +140,7 @@ class CellSteps:
             self._mass_cyc = self._cell_mass
             self._hex_kappa = hex_step.size_factor(self._lam_c, self._mu_c)
         else:
-            self._mass_cyc = np.ascontiguousarray(self._cell_mass[:, _QUAD_CYCLE])
+            self._mass_cyc = np.ascontiguousarray(self._cell_mass[:, quad_step.QUAD_CYCLE])
         self._sqrt_scale = np.ones(nc)
 
     def scale_mass(self, target):

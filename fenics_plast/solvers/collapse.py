@@ -17,7 +17,7 @@ from mpi4py import MPI
 
 from fenics_plast.errors import RunError
 from fenics_plast.solvers import hex_step
-from fenics_plast.solvers.time_integration import quad_min_size
+from fenics_plast.solvers.quad_step import quad_min_size
 
 
 class TimeStepCollapse(RunError):

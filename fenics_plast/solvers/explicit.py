@@ -1,7 +1,7 @@
 """Explicit central-difference dynamics with a lumped mass (Taylor bar impact and friends).
 
 Scheme (central differences written in velocity-Verlet form, which allows a variable step; with
-prescribed motion, loads and contact see :mod:`fenics_plast.solvers.time_integration`):
+prescribed motion, loads and contact see :mod:`fenics_plast.solvers.integrator`):
 
     a_n       = -M^-1 f_int(u_n)                 (a = 0 on velocity-constrained dofs)
     v_{n+1/2} = v_n + dt/2 a_n
@@ -14,7 +14,7 @@ prescribed motion, loads and contact see :mod:`fenics_plast.solvers.time_integra
 * The internal force: the default route, ``internal_force="fused"``, runs kinematics, material
   update and nodal force in one compiled pass over the cells
   (:mod:`fenics_plast.solvers.fused_force`, ~5x cheaper per step); serial runs take the steps
-  between two checks in one compiled call (:func:`time_integration.advance`). The definition that
+  between two checks in one compiled call (:func:`integrator.advance`). The definition that
   pass is held to is the UFL residual ``Kinematics.internal_virtual_work`` (R_u of DESIGN.md,
   shared with the static solver; tests/test_fused_force.py checks force, stress and state against
   it to round-off); ``"ufl"`` evaluates the UFL expression of Fu, calls ``QuadratureMap.update``
@@ -61,7 +61,7 @@ prescribed motion, loads and contact see :mod:`fenics_plast.solvers.time_integra
   keeps the nodes' velocity.
 * Energies: kinetic 1/2 v.M.v (integer-step velocity), internal work by the trapezoidal rule
   W += du.(f_n + f_{n+1})/2, external work of the support reactions likewise (zero for fixed
-  walls), of prescribed motion, loads and moving tools (time_integration.py), contact work
+  walls), of prescribed motion, loads and moving tools (integrator.py), contact work
   E_c (penalty energy + friction dissipation), stored elastic energy int psi(binv) w dV, plastic
   dissipation = W_int - elastic, the kinetic energy brought in by mass scaling E_ms (1/2 dm v^2 at
   each addition). Balance error |KE + W_int + E_c - KE0 - W_ext - E_ms| / (KE0 + |W_ext| + E_ms)
@@ -83,12 +83,14 @@ from fenics_plast import dolfinx_compat as dc
 from fenics_plast.errors import RunError
 from fenics_plast.material import MaterialRegions
 from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
+from fenics_plast.schema import choices, default, key
 from fenics_plast.solvers import fused_force
 from fenics_plast.solvers.fused_force_hex import HexGeometry, hex_folded_cells
-from fenics_plast.solvers import time_integration as ti
-from fenics_plast.solvers.cell_steps import _QUAD_CYCLE, CellSteps
+from fenics_plast.solvers import integrator as ti
+from fenics_plast.solvers.cell_steps import CellSteps
 from fenics_plast.solvers.collapse import collapse_error, fold_error
 from fenics_plast.solvers.explicit_contact import ContactSet
+from fenics_plast.solvers.quad_step import QUAD_CYCLE
 from fenics_plast.solvers.walls import RigidWalls
 
 
@@ -119,14 +121,14 @@ class ExplicitDynamics(CellSteps):
     are unrolled, entry ``2 node + component``.
     """
 
-    INTERNAL_FORCE_ROUTES = ("fused", "ufl")
-    STABLE_STEPS = ("size", "element")
+    INTERNAL_FORCE_ROUTES = choices("analysis.internal_force")
+    STABLE_STEPS = choices("analysis.stable_step")
 
-    def __init__(self, mesh, kin, material, density, velocity_bcs=(), element="q1p0",
-                 reestimate_every=10, log=None, internal_force="fused", stable_step="element",
-                 erosion_ratio=0.0):
-        if element not in ("q1p0", "q1"):
-            raise ValueError(f"element must be 'q1p0' or 'q1', got {element!r}")
+    def __init__(self, mesh, kin, material, density, velocity_bcs=(), element=default("mesh.element"),
+                 reestimate_every=10, log=None, internal_force=default("analysis.internal_force"),
+                 stable_step=default("analysis.stable_step"), erosion_ratio=default("analysis.erosion_ratio")):
+        if element not in choices("mesh.element"):
+            raise ValueError(f"element must be one of {choices('mesh.element')}, got {element!r}")
         if internal_force not in self.INTERNAL_FORCE_ROUTES:
             raise ValueError(f"internal_force must be one of {self.INTERNAL_FORCE_ROUTES}, got {internal_force!r}")
         cellname = mesh.ufl_cell().cellname()
@@ -136,8 +138,10 @@ class ExplicitDynamics(CellSteps):
         if stable_step not in self.STABLE_STEPS:
             raise ValueError(f"stable_step must be one of {self.STABLE_STEPS}, got {stable_step!r}")
         self.stable_step = stable_step
-        if not 0.0 <= erosion_ratio < 1.0:
-            raise ValueError(f"erosion_ratio must lie in [0, 1), got {erosion_ratio}")
+        erosion_range = key("analysis.erosion_ratio")       # the range is the schema's
+        if not erosion_range.in_range(erosion_ratio):
+            raise ValueError(f"erosion_ratio must satisfy {erosion_range.range_text('erosion_ratio')}, "
+                             f"got {erosion_ratio}")
         if erosion_ratio > 0.0 and internal_force != "fused":
             raise ValueError("element erosion (erosion_ratio > 0) is of the fused internal-force pass only")
         self.erosion_ratio = float(erosion_ratio)
@@ -173,7 +177,7 @@ class ExplicitDynamics(CellSteps):
         cell_nodes = np.ascontiguousarray(dc.cell_dofs(V)[: self.n_cells_own], dtype=np.int64)
         self._cell_nodes = cell_nodes                                # basix order
         # quadrilaterals: cyclic vertex order (size, element step); hexahedra: basix order
-        self._cell_dofs = cell_nodes if self.three_d else np.ascontiguousarray(cell_nodes[:, _QUAD_CYCLE])
+        self._cell_dofs = cell_nodes if self.three_d else np.ascontiguousarray(cell_nodes[:, QUAD_CYCLE])
         self._xbuf = np.empty_like(self._X)
         self._hbuf = np.empty(self.n_cells_own)
         if self.regions:
@@ -390,12 +394,13 @@ class ExplicitDynamics(CellSteps):
             self.drivers.add_load(b.array.copy(), traction[k])
             b.destroy()
 
-    def add_contact(self, tool, facet_tags, tag, penalty, friction=0.0, law="coulomb", tangential_penalty=None,
-                    name=None):
+    def add_contact(self, tool, facet_tags, tag, penalty, friction=default("contact.*.friction"),
+                    law=default("contact.*.law"), tangential_penalty=None, name=None):
         """Penalty contact (+ Coulomb friction) of the nodes of the facets tagged ``tag`` against the
         rigid ``tool`` (``gap_np(x, t)``, ``translation(t, use_ufl=False)``; time t [s] as its load
         factor). penalty, tangential_penalty (default: penalty) [N/mm^3]; friction mu; law
-        "coulomb" | "quasi-coulomb". Returns the
+        "coulomb" | "quasi-coulomb" (friction and law default to the schema's, as in the static
+        :class:`~fenics_plast.contact.PenaltyContact`). Returns the
         :class:`~fenics_plast.solvers.explicit_contact.ExplicitContactPair` (force, work,
         penetration). Lowers :meth:`stable_dt`. Collective."""
         self._before_start("contact pairs")
@@ -600,7 +605,7 @@ class ExplicitDynamics(CellSteps):
         the summed E_mass [N mm]. With walls: their summed energy E_wall [N mm]; with element erosion:
         the cells' ``alive`` flags (by cell)."""
         from fenics_plast.checkpoint import Keyed, owned_keyed
-        kv, kq = self._checkpoint_keys()
+        kv, kq = self.checkpoint_keys()
         n = self.n_own
         d = dict(u=owned_keyed(self.u, kv), u_n=owned_keyed(self.u_n, kv), v=owned_keyed(self.v, kv),
                  a=Keyed(self.a, kv[:n]), du=Keyed(self.du, kv[:n]), f=Keyed(np.array(self.f), kv[:n]),
@@ -625,7 +630,9 @@ class ExplicitDynamics(CellSteps):
             d.update(alive=Keyed(self.alive.astype(float), cell_keys(self.mesh)[: self.n_cells_own]))
         return d
 
-    def _checkpoint_keys(self):
+    def checkpoint_keys(self):
+        """(dof keys of V, quadrature-point keys of the owned points): the checkpoint's keys, which
+        name each value by node coordinates and cell/point rather than by this run's numbering."""
         if not hasattr(self, "_ck_keys"):
             from fenics_plast.checkpoint import dof_keys, qp_keys
             self._ck_keys = (dof_keys(self.V), qp_keys(self.mesh, self.n_cells_own, self.qmap.nq))
@@ -642,7 +649,7 @@ class ExplicitDynamics(CellSteps):
         keys += ["E_wall"] if self.walls.active else []
         keys += ["alive"] if self.erosion_ratio > 0.0 else []
         ck.require(d, keys, "explicit solver")
-        kv, kq = self._checkpoint_keys()
+        kv, kq = self.checkpoint_keys()
         n = self.n_own
         why = None
         try:
@@ -766,8 +773,10 @@ class ExplicitDynamics(CellSteps):
         return self._X + self.u.x.array.reshape(-1, self.bs)
 
     # ------------------------------------------------------------------------------------------
-    def run(self, end_time, dt_safety=0.8, steps=None, rows=2, on_row=None, progress=10, max_steps=None,
-            bar=None, checkpoint_every=0, on_checkpoint=None, resume=None, dt_floor=1e-3, mass_scaling_dt=0.0):
+    def run(self, end_time, dt_safety=default("analysis.dt_safety"), steps=None, rows=2, on_row=None, progress=10,
+            max_steps=None, bar=None, checkpoint_every=default("output.checkpoint_every", analysis="explicit"),
+            on_checkpoint=None, resume=None, dt_floor=default("analysis.dt_floor"),
+            mass_scaling_dt=default("analysis.mass_scaling_dt")):
         """Integrate to ``end_time`` [s].
 
         steps=None: dt = dt_safety * dt_stable, re-estimated every ``reestimate_every`` steps and
@@ -791,11 +800,9 @@ class ExplicitDynamics(CellSteps):
         a stress or force that is non-finite otherwise raises a RunError at once (the step not taken).
         Returns a dict of run statistics.
         """
-        if not 0.0 < dt_safety <= 1.0:
-            raise RunError(f"analysis.dt_safety must lie in (0, 1], got {dt_safety}")
-        if not (0.0 <= dt_floor < 1.0 and mass_scaling_dt >= 0.0):
-            raise RunError(f"dt_floor must lie in [0, 1) and mass_scaling_dt be >= 0, got {dt_floor}, "
-                           f"{mass_scaling_dt}")
+        for name, value in (("dt_safety", dt_safety), ("dt_floor", dt_floor), ("mass_scaling_dt", mass_scaling_dt)):
+            if not key(f"analysis.{name}").in_range(value):      # the ranges are the schema's
+                raise RunError(f"{name} must satisfy {key(f'analysis.{name}').range_text(name)}, got {value}")
         dt_stable0 = self.stable_dt() if resume is None else resume["dt_stable0"]
         if steps is not None:
             dt_fixed = end_time / int(steps)

@@ -2,7 +2,7 @@ r"""Penalty contact with Coulomb friction for the explicit solver: body nodes ag
 
 Each :class:`ExplicitContactPair` is the set of nodes of one boundary facet group of the body
 against one rigid tool (any object with ``gap_np(x, t) -> (g (n,), N (n, dim))``, ``dim`` and
-``translation(t, use_ufl=False) -> (dim,)``, e.g. the tools of :mod:`fenics_plast.contact`, whose
+``translation(t, use_ufl=False) -> (dim,)``, e.g. the tools of :mod:`fenics_plast.tools`, whose
 load factor is the time t [s] here). Units mm, N, MPa, s.
 
 * Nodes: the owned nodes of the facet group (each rank handles its owned nodes; totals are
@@ -29,16 +29,16 @@ load factor is the time t [s] here). Units mm, N, MPa, s.
   stored + frictional dissipation, >= 0 for a fixed tool) and the tool's work
   W_tool = int F_c . dd (goes into the external work); impulse int F_c dt [N s].
 
-The forces are computed by :func:`fenics_plast.solvers.time_integration.contact_forces`, for
-:class:`~fenics_plast.tools.Plane` and :class:`~fenics_plast.tools.Circle` tools (FlatWall,
-SphericalPunch, ... of :mod:`fenics_plast.contact`: subclasses that keep their gap) with the gap
+The forces are computed by :func:`fenics_plast.solvers.contact_kernels.contact_forces`, for
+:class:`~fenics_plast.tools.Plane` and :class:`~fenics_plast.tools.Circle` tools (and subclasses
+that keep their gap) with the gap
 in compiled code, so that serial fused runs keep taking several steps per compiled call; other
 tools (e.g. :class:`~fenics_plast.tools.Profile`) have their ``gap_np`` called every step, which
 makes the serial run go step by step.
 
 3-D bodies (3 dofs per node, 3-D tools): the same, with the tangential traction a vector of the
 tangent plane returned to |t| <= mu p on its norm
-(:func:`~fenics_plast.solvers.time_integration.contact_forces_3d`); compiled gaps for
+(:func:`~fenics_plast.solvers.contact_kernels.contact_forces_3d`); compiled gaps for
 :class:`~fenics_plast.tools.Plane` (3-D), :class:`~fenics_plast.tools.Sphere`,
 :class:`~fenics_plast.tools.Cylinder` and :class:`~fenics_plast.tools.Torus`,
 :class:`~fenics_plast.tools.RevolvedProfile` through its ``gap_np``. Arrays per node have ``dim``
@@ -59,9 +59,9 @@ from petsc4py import PETSc
 
 from fenics_plast.contact import LAWS
 from fenics_plast.tools import Circle, Cylinder, Plane, Sphere, Torus
-from fenics_plast.solvers import time_integration as ti
+from fenics_plast.solvers import contact_kernels as ck
 
-_LAW_CODE = {"coulomb": ti.COULOMB, "quasi-coulomb": ti.QUASI_COULOMB}
+_LAW_CODE = {"coulomb": ck.COULOMB, "quasi-coulomb": ck.QUASI_COULOMB}
 #: columns of a tool's parameters in the compiled gap (the 3-D torus needs 8)
 _N_PARAMS = 8
 
@@ -82,20 +82,20 @@ def _tool_kind(tool):
     if isinstance(tool, Plane) and cls.gap_np is Plane.gap_np:
         d = tool.dim
         params[:2 * d] = np.concatenate([tool.point, tool.normal])
-        return ti.PLANE, params
+        return ck.PLANE, params
     if isinstance(tool, Circle) and cls.gap_np is Circle.gap_np and cls.center is Circle.center:
         params[:3] = [tool.center0[0], tool.center0[1], tool.radius]
-        return ti.CIRCLE, params
+        return ck.CIRCLE, params
     if isinstance(tool, Sphere) and cls.gap_np is Sphere.gap_np:
         params[:4] = [*tool.center0, tool.radius]
-        return ti.SPHERE, params
+        return ck.SPHERE, params
     if isinstance(tool, Cylinder) and cls.gap_np is Cylinder.gap_np:
         params[:7] = [*tool.center0, *tool.axis, tool.radius]
-        return ti.CYLINDER, params
+        return ck.CYLINDER, params
     if isinstance(tool, Torus) and cls.gap_np is Torus.gap_np:
         params[:8] = [*tool.center0, *tool.axis, tool.ring_radius, tool.radius]
-        return ti.TORUS, params
-    return ti.GENERIC, params
+        return ck.TORUS, params
+    return ck.GENERIC, params
 
 
 class ExplicitContactPair:
@@ -103,10 +103,11 @@ class ExplicitContactPair:
     :meth:`ExplicitDynamics.add_contact`). Collective construction.
 
     penalty, tangential_penalty (default: penalty) [N/mm^3]; friction mu; law "coulomb" |
-    "quasi-coulomb". Reporting methods are collective and return global values on all ranks.
+    "quasi-coulomb" (friction and law have no default here: :meth:`ExplicitDynamics.add_contact` takes
+    the schema's). Reporting methods are collective and return global values on all ranks.
     """
 
-    def __init__(self, contact_set, index, tool, facet_tags, tag, penalty, friction=0.0, law="coulomb",
+    def __init__(self, contact_set, index, tool, facet_tags, tag, penalty, friction, law,
                  tangential_penalty=None, name=None):
         if law not in LAWS:
             raise ValueError(f"contact law must be one of {LAWS}, got {law!r}")
@@ -158,7 +159,7 @@ class ExplicitContactPair:
     def compiled(self):
         """True if the gap is computed in compiled code (Plane, Circle; 3-D: Plane, Sphere, Cylinder,
         Torus)."""
-        return self.kind != ti.GENERIC
+        return self.kind != ck.GENERIC
 
     def translation(self, t):
         """The tool's translation at time t [s] (dim,) [mm]."""
@@ -231,7 +232,7 @@ class ExplicitContactPair:
 
 class ContactSet:
     """All contact pairs of one solver, their nodes concatenated in the arrays of
-    :func:`~fenics_plast.solvers.time_integration.contact_forces` (rank-local rows)."""
+    :func:`~fenics_plast.solvers.contact_kernels.contact_forces` (rank-local rows)."""
 
     def __init__(self, solver):
         self.solver = solver
@@ -331,7 +332,7 @@ class ContactSet:
                 g, N = p.tool.gap_np(x, t)
                 self.gN[p.sl, 0] = g
                 self.gN[p.sl, 1:] = np.asarray(N)[:, :self.dim]
-        ti.contact_forces(u, du, dt, *self.args(), trans_old, trans_new, fcon)
+        ck.contact_forces(u, du, dt, *self.args(), trans_old, trans_new, fcon)
 
     # -- checkpoints -------------------------------------------------------------------------
     def state_dict(self, dof_keys, comm):

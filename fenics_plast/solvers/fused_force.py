@@ -4,7 +4,7 @@ The compiled-loop twin of the UFL path (``Kinematics.Fu`` + ``QuadratureMap.upda
 ``Kinematics.internal_virtual_work``, assembled by dolfinx), for bilinear quadrilaterals
 (axisymmetric or plane strain) and, with the passes of :mod:`fenics_plast.solvers.fused_force_hex`,
 trilinear hexahedra (geometry "3d", 2 x 2 x 2 Gauss points; chosen by the arrays' shapes when numba
-compiles, so the step loops of time_integration.py serve both). Same quadrature points, same material kernels
+compiles, so the step loops of integrator.py serve both). Same quadrature points, same material kernels
 (:mod:`fenics_plast.material.kernels`), same equations (DESIGN.md, "R_u"):
 
     F       = I + Grad u,  hoop F_hh = 1 + u_r / R  (axisymmetric; 1 in plane strain)
@@ -35,7 +35,8 @@ per material on its own points (``regions``); one material takes the plain call,
 
 This module holds the internal-force pass only; the time integration that calls it (step loop,
 velocity-Verlet updates, prescribed motion, loads, contact) is
-:mod:`fenics_plast.solvers.time_integration`.
+:mod:`fenics_plast.solvers.integrator`; what the passes of both cell kinds share cell by cell (F-bar,
+erosion, the fold checks' bookkeeping) is :mod:`fenics_plast.solvers.fused_cells`.
 """
 from __future__ import annotations
 
@@ -48,6 +49,8 @@ from numba.extending import overload
 
 from fenics_plast.material import kernels
 from fenics_plast.material.regions import update_regions
+from fenics_plast.solvers.fused_cells import erodes, fbar_points, record_fold, sum_is_finite
+from fenics_plast.solvers.fused_force_hex import hex_force, hex_kinematics, hex_update_force_blocked
 
 _njit = numba.njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
 
@@ -92,17 +95,6 @@ def quadrature(degree, cell="quadrilateral"):
 
 
 @_njit
-def _cbrt(r):
-    """r^(1/3). Per step, F-bar ratios differ from 1 by ~1e-4: there one Halley step from the
-    linearised root is exact to round-off (error < 5e-16 for |r - 1| < 1e-3) and 2-3x cheaper than pow."""
-    if abs(r - 1.0) < 1e-3:
-        y = 1.0 + (r - 1.0) / 3.0
-        y3 = y * y * y
-        return y * (y3 + 2.0 * r) / (2.0 * y3 + r)
-    return r ** (1.0 / 3.0)
-
-
-@_njit
 def _deformation(ue, dNdX, N, Rinv, c, q):
     """F at point q of cell c from the cell's nodal displacements ue (8,) = (u_r, u_z) per node.
     Returns (F_rr, F_rz, F_zr, F_zz, F_hh)."""
@@ -141,37 +133,6 @@ def _freeze_quad(c, nq, Fu, Finv, factor):
         Finv[p, 3] = 1.0
         Finv[p, 4] = 1.0
         factor[p] = 0.0
-
-
-@_njit
-def erodes(J, th, erosion_ratio):
-    """Whether a cell with point Jacobians J (nq,) and mean dilatation th is eroded: erosion on
-    (ratio > 0) and its smallest J below ratio x th (a cell about to fold; th <= 0 always qualifies)."""
-    if erosion_ratio <= 0.0:
-        return False
-    jmin = J[0]
-    for q in range(1, J.shape[0]):
-        jmin = min(jmin, J[q])
-    return jmin < erosion_ratio * th or th <= 0.0
-
-
-@_njit
-def fbar_points(c, th, th_n, J, J_n, fbar, Fu, factor):
-    """The F-bar part of pass 1 at the points of cell c (quadrilaterals and hexahedra): with fbar,
-    Fu *= ((theta J_n) / (theta_n J))^(1/3) (seed eq. 10; on quadrilaterals Fu's off-block entries are 0
-    and stay 0) and factor = J / theta; without, factor = 1. J, J_n (nq,): the points' Jacobians now and
-    at the last step; th, th_n: the cell's mean dilatation now and then."""
-    nq = J.shape[0]
-    for q in range(nq):
-        p = c * nq + q
-        if fbar:
-            s = _cbrt((th * J_n[q]) / (th_n * J[q]))
-            for i in range(3):
-                for j in range(3):
-                    Fu[p, i, j] *= s
-            factor[p] = J[q] / th
-        else:
-            factor[p] = 1.0
 
 
 @_njit
@@ -275,15 +236,9 @@ def quad_folded_cells(u, cell_dofs, dNdX, N, Rinv, W, alive, erosion_ratio, jmin
             th += J[q] * W[c, q]
             wsum += W[c, q]
         th /= wsum
-        if erodes(J, th, erosion_ratio):
-            continue
-        if jmin.shape[0]:
-            jmin[c] = lo
-        if folds:
-            if first < 0:
-                first = c
-            if not jmin.shape[0]:
-                return first
+        first, done = record_fold(c, J, th, erosion_ratio, lo, folds, jmin, first)
+        if done:
+            return first
     return first
 
 
@@ -311,10 +266,7 @@ def _force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f):
                 node = cell_dofs[c, a]
                 f[2 * node] += t00 * g0 + t01 * g1 + thh * N[q, a]
                 f[2 * node + 1] += t10 * g0 + t11 * g1
-    total = 0.0
-    for i in range(f.shape[0]):
-        total += f[i]
-    return math.isfinite(total)
+    return sum_is_finite(f)
 
 
 @_njit
@@ -407,8 +359,6 @@ def _other_passes_impl(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion
     (:func:`fenics_plast.solvers.fused_force_hex.hex_update_force_blocked`, the same numbers; 3-D
     arrays are large); otherwise each pass over all cells (numba types, at compile time)."""
     if Finv.ndim == 3 and isinstance(regions, types.NoneType):
-        from fenics_plast.solvers.fused_force_hex import hex_update_force_blocked
-
         def blocked(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
                     yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
             return hex_update_force_blocked(cell_dofs, dNdX, W, model, lmbda, mu, law, hp, yield_tol, binv, eqps,
@@ -439,8 +389,6 @@ def _cell_kinematics_impl(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, eros
     """Chosen by Finv's dimension when numba compiles: 2, quadrilaterals (:func:`_kinematics`);
     3, hexahedra (:func:`fenics_plast.solvers.fused_force_hex.hex_kinematics`)."""
     if Finv.ndim == 3:
-        from fenics_plast.solvers.fused_force_hex import hex_kinematics
-
         def hexahedra(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta):
             return hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, Fu, Finv, factor, theta)
         return hexahedra
@@ -454,8 +402,6 @@ def _cell_kinematics_impl(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, eros
 def _nodal_force_impl(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f):
     """Chosen by Finv's dimension when numba compiles, as :func:`_cell_kinematics_impl`."""
     if Finv.ndim == 3:
-        from fenics_plast.solvers.fused_force_hex import hex_force
-
         def hexahedra(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f):
             return hex_force(tau, cell_dofs, dNdX, W, Finv, factor, f)
         return hexahedra

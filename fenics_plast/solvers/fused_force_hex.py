@@ -3,7 +3,7 @@ r"""The fused internal-force pass on trilinear hexahedra (geometry "3d"): its ki
 :func:`fenics_plast.solvers.fused_force.internal_force` runs these two passes around the material
 update when its arrays are those of hexahedra (``Finv`` of shape (n, 3, 3); the quadrilateral
 passes take (n, 5)), so the explicit solver's compiled step loops
-(:mod:`fenics_plast.solvers.time_integration`) serve 2-D and 3-D alike. Equations (DESIGN.md,
+(:mod:`fenics_plast.solvers.integrator`) serve 2-D and 3-D alike. Equations (DESIGN.md,
 "R_u"; units mm, N, MPa):
 
     F       = I + Grad u  (full 3x3, u a 3-vector field),  F_n likewise from u_n
@@ -20,10 +20,6 @@ The definition is the UFL residual ``Kinematics.internal_virtual_work`` (assembl
 the explicit solver's ``internal_force = "ufl"`` route); ``tests/test_fused_force_3d.py`` holds
 this pass's force, stress and state to it to 1e-12 on a yielding state of distorted hexahedra
 (both elements, both material models).
-
-numba caches ``fused_force.internal_force`` (and the step loops) with these kernels compiled in,
-keyed on the calling modules' files only: after editing this file delete
-``fenics_plast/solvers/__pycache__/*.nb[ic]``.
 """
 from __future__ import annotations
 
@@ -33,7 +29,7 @@ import numba
 import numpy as np
 
 from fenics_plast.material import kernels
-from fenics_plast.solvers.fused_force import erodes, fbar_points
+from fenics_plast.solvers.fused_cells import erodes, fbar_points, record_fold, sum_is_finite
 
 _njit = numba.njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
 
@@ -124,7 +120,7 @@ def hex_kinematics(u, u_n, cell_dofs, dNdX, W, fbar, alive, erosion_ratio, Fu, F
     u, u_n (3 n_nodes,) current and previous displacements [mm] (entry 3 node + component);
     cell_dofs (nc, 8) node indices (basix order); fbar: Q1/P0 F-bar (False: theta = J, factor 1);
     alive (nc,) uint8: 0 = eroded (frozen, :func:`_freeze_hex`); a cell that
-    :func:`~fenics_plast.solvers.fused_force.erodes` (erosion_ratio) now gets alive[c] = 0.
+    :func:`~fenics_plast.solvers.fused_cells.erodes` (erosion_ratio) now gets alive[c] = 0.
     Returns -1, or the first living cell, not eroded now, with a point where det F <= 0 (or not
     finite): it folds, and the pass stops there (the caller writes no state).
     """
@@ -238,15 +234,9 @@ def hex_folded_cells(u, cell_dofs, dNdX, W, alive, erosion_ratio, jmin):
             th += det * W[c, q]
             wsum += W[c, q]
         th /= wsum
-        if erodes(J, th, erosion_ratio):
-            continue
-        if jmin.shape[0]:
-            jmin[c] = lo
-        if folds:
-            if first < 0:
-                first = c
-            if not jmin.shape[0]:
-                return first
+        first, done = record_fold(c, J, th, erosion_ratio, lo, folds, jmin, first)
+        if done:
+            return first
     return first
 
 
@@ -257,15 +247,7 @@ def hex_force(tau, cell_dofs, dNdX, W, Finv, factor, f):
     Returns False if f is not finite."""
     f[:] = 0.0
     hex_force_add(tau, cell_dofs, dNdX, W, Finv, factor, f)
-    return _finite(f)
-
-
-@_njit
-def _finite(f):
-    total = 0.0
-    for i in range(f.shape[0]):
-        total += f[i]
-    return math.isfinite(total)
+    return sum_is_finite(f)
 
 
 #: cells per block of :func:`hex_update_force_blocked`: the block's points' tau, b_e^-1, F^-1 and its
@@ -294,7 +276,7 @@ def hex_update_force_blocked(cell_dofs, dNdX, W, model, lmbda, mu, law, hp, yiel
         kernels.update_points(model, Fu[p0:p1], binv[p0:p1], eqps[p0:p1], T, lmbda, mu, law, hp, yield_tol, dt,
                               tau[p0:p1], binv[p0:p1], eqps[p0:p1], T, no_tangent, False)
         hex_force_add(tau[p0:p1], cell_dofs[c0:c1], dNdX[c0:c1], W[c0:c1], Finv[p0:p1], factor[p0:p1], f)
-    return _finite(f)
+    return sum_is_finite(f)
 
 
 @_njit

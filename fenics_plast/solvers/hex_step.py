@@ -1,7 +1,7 @@
 r"""The explicit stable step on trilinear hexahedra: a size estimate per cell and the element's own step.
 
-The hexahedral twins of the quadrilateral kernels of :mod:`fenics_plast.solvers.time_integration`
-(``_quad_min_size``, ``_quad_eig_dt``, ``_lazy_min``), called by
+The hexahedral twins of the quadrilateral kernels of :mod:`fenics_plast.solvers.quad_step`
+(``quad_size``, ``quad_eig_dt``, ``quad_lazy_min``), called by
 :class:`~fenics_plast.solvers.explicit.ExplicitDynamics` when its mesh is hexahedral (geometry "3d").
 Vertices in basix order (vertex a at (a & 1, (a >> 1) & 1, (a >> 2) & 1) of the unit cube); lengths
 mm, masses tonne, moduli MPa, times s.
@@ -38,7 +38,7 @@ import numba
 import numpy as np
 
 from fenics_plast.solvers.fused_force_hex import hex_shape_functions
-from fenics_plast.solvers.time_integration import element_step
+from fenics_plast.solvers.element_step import element_step
 
 # the 6 faces of basix's hexahedron, vertices in cyclic order
 HEX_FACES = np.array([[0, 2, 6, 4], [1, 3, 7, 5], [0, 1, 5, 4], [2, 3, 7, 6], [0, 1, 3, 2], [4, 5, 7, 6]],
@@ -215,6 +215,6 @@ def hex_lazy_min(d, x, cell_dofs, mass, lam, mu, scale_sqrt, fbar):
     s_c the cell's mass-scaling factor, visiting the cells in ascending d (size estimates, (nc,) [s],
     a lower bound of e sqrt(s)) and stopping when d reaches the minimum found to 1e-12 relative (so
     that a mesh of equal cells stops after the first): e is computed for the few cells whose size
-    estimate is below the result. Quadrilaterals: ``time_integration._lazy_min`` (which takes the
+    estimate is below the result. Quadrilaterals: ``quad_step.quad_lazy_min`` (which takes the
     larger of d and e)."""
     return _hex_lazy_min(d, np.argsort(d), x, cell_dofs, mass, lam, mu, scale_sqrt, bool(fbar), _DN8)

@@ -31,6 +31,7 @@ from fenics_plast import dolfinx_compat as dc
 from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 
 from fenics_plast.errors import RunError
+from fenics_plast.schema import choices, default
 from fenics_plast.solvers import krylov
 
 _prefix_counter = itertools.count()
@@ -53,13 +54,16 @@ ROUNDOFF_FACTOR = 10.0      # safety factor of the residual round-off floor (see
 class StaticSolver:
     """Newton (SNES newtonls + line search, MUMPS LU) with incremental loading."""
 
-    def __init__(self, kin, material, element="q1p0", rtol=1e-9, atol=1e-8, max_iterations=25,
-                 linesearch="bt", stol=0.0, verbose=True, log=None, progress=None, linear_solver="mumps",
-                 linear_rtol=1e-8, linear_max_iterations=500):
-        if element not in ("q1p0", "q1"):
-            raise ValueError(f"element must be 'q1p0' or 'q1', got {element!r}")
-        if linear_solver not in ("mumps", "gamg"):
-            raise ValueError(f"linear_solver must be 'mumps' or 'gamg', got {linear_solver!r}")
+    def __init__(self, kin, material, element=default("mesh.element"), rtol=default("analysis.rtol"),
+                 atol=default("analysis.atol"), max_iterations=default("analysis.max_iterations"),
+                 linesearch=default("analysis.linesearch"), stol=0.0, verbose=True, log=None, progress=None,
+                 linear_solver=default("analysis.linear_solver"), linear_rtol=default("analysis.linear_rtol"),
+                 linear_max_iterations=default("analysis.linear_max_iterations")):
+        if element not in choices("mesh.element"):
+            raise ValueError(f"element must be one of {choices('mesh.element')}, got {element!r}")
+        if linear_solver not in choices("analysis.linear_solver"):
+            raise ValueError(f"linear_solver must be one of {choices('analysis.linear_solver')}, got "
+                             f"{linear_solver!r}")
         self.kin = kin
         self.mesh = mesh = kin.mesh
         self.comm = mesh.comm
@@ -530,7 +534,7 @@ class StaticSolver:
         force scale [N], round-off floor [N], counters, the increment and cut-back records, and MUMPS
         ICNTL(14)."""
         from fenics_plast.checkpoint import Keyed, owned_keyed
-        kw, kq = self._checkpoint_keys()
+        kw, kq = self.checkpoint_keys()
         icntl = PETSc.Options().getInt(self.prefix + "mat_mumps_icntl_14", 100) if self._setup_done else 100
         d = dict(w=owned_keyed(self.w, kw), w_n=owned_keyed(self.w_n, kw), w_nm1=owned_keyed(self.w_nm1, kw),
                  binv=Keyed(self.qmap.binv, kq), eqps=Keyed(self.qmap.eqps, kq),
@@ -544,7 +548,9 @@ class StaticSolver:
             d.update(temperature=Keyed(self.qmap.temperature, kq))      # Johnson-Cook [K]
         return d
 
-    def _checkpoint_keys(self):
+    def checkpoint_keys(self):
+        """(dof keys of W, quadrature-point keys of the owned points): the checkpoint's keys, which
+        name each value by node coordinates and cell/point rather than by this run's numbering."""
         if not hasattr(self, "_ck_keys"):
             from fenics_plast.checkpoint import dof_keys, qp_keys
             self._ck_keys = (dof_keys(self.W), qp_keys(self.mesh, self.qmap.n_owned, self.qmap.nq))
@@ -559,7 +565,7 @@ class StaticSolver:
                    "static solver")
         if not self._setup_done:
             self.setup()
-        kw, kq = self._checkpoint_keys()
+        kw, kq = self.checkpoint_keys()
         why = None
         try:
             n = self.W.dofmap.index_map.size_local * self.W.dofmap.index_map_bs
@@ -591,18 +597,20 @@ class StaticSolver:
             PETSc.Options()[self.prefix + "mat_mumps_icntl_14"] = icntl
             self.snes.getKSP().setFromOptions()
 
-    def run(self, increments=20, min_increment=1e-4, max_increment=0.1, lam_end=1.0,
-            callback=None, growth=1.5, fast_iterations=4, checkpoint_every=0, on_checkpoint=None,
-            resume=None):
+    def run(self, increments=default("analysis.increments"), min_increment=default("analysis.min_increment"),
+            max_increment=default("analysis.max_increment"), lam_end=1.0, callback=None, growth=1.5,
+            fast_iterations=4, checkpoint_every=default("output.checkpoint_every", analysis="static"),
+            on_checkpoint=None, resume=None):
         """Drive lam from its current value to lam_end.
 
         callback(solver) is called after every converged increment; returning True stops the run.
         Raises RunError below min_increment (all converged increments are kept/written).
         Returns True when lam_end was reached, False when the callback stopped the run.
         ``on_checkpoint(solver, loop)`` is called after the callback of every ``checkpoint_every``-th
-        converged increment (counted over the solver's life), ``loop`` holding this loop's variables
-        (JSON-able); ``resume=loop`` continues the run() call that saved it (after
-        :meth:`load_state`; ignored by a run() call to another lam_end).
+        converged increment (counted over the solver's life; 0: never), ``loop`` holding this loop's
+        variables (JSON-able); ``resume=loop`` continues the run() call that saved it (after
+        :meth:`load_state`; ignored by a run() call to another lam_end). The defaults of the increments,
+        tolerances and checkpoint interval are the schema's (:func:`fenics_plast.schema.default`).
         """
         if not self._setup_done:
             self.setup()

@@ -3,7 +3,7 @@
 A wall is a plane normal to a coordinate axis, x_c = position, that a set of nodes (every node, by
 default) cannot pass: LS-DYNA's planar rigid wall on a node set, frictionless. The body starts on
 one side of it; a node that reaches it stops there and may leave it again. The stop itself is the
-compiled :func:`fenics_plast.solvers.time_integration.stop_at_walls`, called after each drift by the
+compiled :func:`fenics_plast.solvers.integrator.stop_at_walls`, called after each drift by the
 step kernels of every route: a dof past its wall is put back on it and its half-step velocity becomes
 the one that lands it there. The energy this takes (an inelastic stop: a node that lands stays) is a
 term of the energy balance, ``wall_energy``.
@@ -25,7 +25,7 @@ class RigidWalls:
     which it touches its wall and the side the body is on (see the module doc).
 
     ``args``: the tuple (dofs, limit, side, lost, pending, hit) of
-    :func:`~fenics_plast.solvers.time_integration.stop_at_walls`.
+    :func:`~fenics_plast.solvers.integrator.stop_at_walls`.
     """
 
     def __init__(self, solver):

@@ -3,37 +3,16 @@
 * :func:`add_study_arguments`: the arguments (shared by both entry points);
 * :func:`study_from_args`: run a study from parsed arguments, returning the exit status: 0 when
   at least one run succeeded, 1 when none did, 2 for bad arguments (nothing run);
-* :func:`study_command`: the equivalent ``fenics-plast study`` command line (shown in study.md);
 * :func:`main`: ``python -m fenics_plast.study``.
 """
 from __future__ import annotations
 
 import argparse
-import shlex
 import sys
 from pathlib import Path
-from typing import Sequence
 
-from .plan import StudyError, Vary, parse_vary
-
-
-def study_command(scene: str, varies: Sequence[Vary], sets: Sequence[str], out: str | None, np_ranks: int,
-                  results: str | None = None, trust_mesh_script: bool = False) -> str:
-    """The ``fenics-plast study`` command line of a study (quoted for a shell)."""
-    parts = ["fenics-plast", "study", scene]
-    for v in varies:
-        parts += ["--vary", f"{v.key}={','.join(v.values)}"]
-    for s in sets:
-        parts += ["--set", s]
-    if results:
-        parts += ["--results", results]
-    if np_ranks > 1:
-        parts += ["--np", str(np_ranks)]
-    if out:
-        parts += ["--out", out]
-    if trust_mesh_script:
-        parts += ["--trust-mesh-script"]
-    return " ".join(shlex.quote(p) for p in parts)
+from .driver import run_study
+from .plan import StudyError, parse_vary, study_command
 
 
 def add_study_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
@@ -62,7 +41,6 @@ def add_study_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
 
 def study_from_args(args) -> int:
     """Run a study from parsed arguments; returns the exit status (0, 1 or 2)."""
-    from .driver import run_study      # (driver imports study_command from here)
     try:
         varies = [parse_vary(t) for t in args.vary]
         if args.out:

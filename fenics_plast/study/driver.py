@@ -12,9 +12,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
-from .cli import study_command
 from .execute import Run, execute, prevalidate
-from .plan import StudyError, Vary, combinations, non_discretisation_keys, run_label, run_name
+from .plan import StudyError, Vary, combinations, non_discretisation_keys, run_label, run_name, study_command
 from .references import references
 from .report import write_csv, write_markdown, write_plot
 from .table import Study, declared_outputs

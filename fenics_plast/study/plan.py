@@ -8,7 +8,8 @@ keys order runs from coarse to fine.
   along which a Richardson extrapolation is made, with the mesh size h(value);
 * :data:`UNORDERED_KEYS`: discretisation keys that do not order runs (a mesh's grading);
 * :func:`set_key`, :func:`non_discretisation_keys`: the keys a study changes that are not
-  discretisation keys (the published references no longer apply when there is one).
+  discretisation keys (the published references no longer apply when there is one);
+* :func:`study_command`: the equivalent ``fenics-plast study`` command line (shown in study.md).
 
 Nothing here runs anything or reads a scene file.
 """
@@ -17,6 +18,7 @@ from __future__ import annotations
 import fnmatch
 import itertools
 import re
+import shlex
 import tomllib
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Sequence
@@ -178,3 +180,22 @@ def run_name(index: int, combo: dict[str, str], varies: Sequence[Vary]) -> str:
     label = run_label(combo, varies).replace("=", "-").replace(" ", "_")
     label = re.sub(r"[^A-Za-z0-9_.+-]", "-", label)[:80]
     return f"{index + 1:02d}_{label}"
+
+
+def study_command(scene: str, varies: Sequence[Vary], sets: Sequence[str], out: str | None, np_ranks: int,
+                  results: str | None = None, trust_mesh_script: bool = False) -> str:
+    """The ``fenics-plast study`` command line of a study (quoted for a shell)."""
+    parts = ["fenics-plast", "study", scene]
+    for v in varies:
+        parts += ["--vary", f"{v.key}={','.join(v.values)}"]
+    for s in sets:
+        parts += ["--set", s]
+    if results:
+        parts += ["--results", results]
+    if np_ranks > 1:
+        parts += ["--np", str(np_ranks)]
+    if out:
+        parts += ["--out", out]
+    if trust_mesh_script:
+        parts += ["--trust-mesh-script"]
+    return " ".join(shlex.quote(p) for p in parts)

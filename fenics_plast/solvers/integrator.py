@@ -1,11 +1,13 @@
-r"""Time integration of the explicit solver: central differences in velocity-Verlet form.
+r"""The explicit solver's integrator: central differences in velocity-Verlet form.
 
-Compiled kernels of :class:`fenics_plast.solvers.explicit.ExplicitDynamics` and :class:`Drivers`,
-what drives a run besides the internal force (prescribed motion, external loads) and the steps
-that integrate them together with contact. The internal force itself is
-:func:`fenics_plast.solvers.fused_force.internal_force` (or the UFL route in explicit.py); the
-contact forces are :func:`contact_forces` with the data of
-:mod:`fenics_plast.solvers.explicit_contact`.
+The compiled step kernels of :class:`fenics_plast.solvers.explicit.ExplicitDynamics` (the plain and
+the general ones, the rigid walls' stops, the step loops ``advance*`` with their status codes
+``STEP_*``) and :class:`Drivers`, what drives a run besides the internal force (prescribed motion,
+external loads) and the steps that integrate them together with contact. The internal force itself
+is :func:`fenics_plast.solvers.fused_force.internal_force` (or the UFL route in explicit.py); the
+contact forces are :func:`fenics_plast.solvers.contact_kernels.contact_forces` with the data of
+:mod:`fenics_plast.solvers.explicit_contact`. The stable step is
+:class:`fenics_plast.solvers.cell_steps.CellSteps`'s.
 
 One step t_n -> t_{n+1} = t_n + dt (units mm, N, s, tonne/mm^3; arrays are the owned, unrolled
 dofs, 2 per node (3 on hexahedra, geometry "3d"): index bs node + component):
@@ -29,9 +31,10 @@ Energies (trapezoidal rule over the step, du = u_{n+1} - u_n):
   acceleration of the prescribed dof taken over each half step, a_n^+ = 2 (v_{n+1/2} - v_n) / dt,
   a_{n+1}^- = 2 (v_{n+1} - v_{n+1/2}) / dt (so the inertia term integrates to
   M v_{n+1/2} (v_{n+1} - v_n), the discrete kinetic energy change of the dof);
-* contact (per pair, :func:`contact_forces`): energy taken up by the contact (penalty energy +
-  frictional dissipation) E_c += -(f_c,n + f_c,n+1)/2 . (du - dd), dd the tool's translation over
-  the step, and the work of the moving tool W_tool += (F_c,n + F_c,n+1)/2 . dd.
+* contact (per pair, :func:`~fenics_plast.solvers.contact_kernels.contact_forces`): energy taken
+  up by the contact (penalty energy + frictional dissipation) E_c += -(f_c,n + f_c,n+1)/2 . (du - dd),
+  dd the tool's translation over the step, and the work of the moving tool
+  W_tool += (F_c,n + F_c,n+1)/2 . dd.
 
 Rigid walls (boundary type "wall", :func:`stop_at_walls`): after the drift a dof past its wall is
 put back on it and v_{n+1/2} becomes the velocity that lands it there; the energy this takes, E_wall,
@@ -40,10 +43,6 @@ is the stopped dof's own balance over the step, 1/2 m (v_n^2 - v_{n+1}^2) - du (
 
 Balance: KE + W_int + E_c + E_wall = KE0 + W_ext with W_ext = W_load + sum W_set + W_tool (+ the
 supports' work, zero for homogeneous velocity constraints).
-
-The stable step's element size (:func:`quad_min_size`: smallest edge or altitude of the deformed
-quads) is here too; ExplicitDynamics.stable_dt divides it by the wave speed and combines it with the
-contact penalty's limit (explicit_contact.py).
 
 The plain kernels (:func:`kick_drift`, :func:`kick`, :func:`advance`) serve runs with only
 homogeneous velocity constraints (the Taylor bar: same arithmetic as before the general drivers
@@ -64,160 +63,13 @@ import numba
 import numpy as np
 from mpi4py import MPI
 
+from fenics_plast.solvers.contact_kernels import contact_forces
 from fenics_plast.solvers.fused_force import folded_cell, update_and_force
 
 _njit = numba.njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
 _NONE = np.zeros(0)             # "no load vector" for the walls' kernels called by the plain kernels
 
 VELOCITY, DISPLACEMENT = 0, 1
-
-
-# ----------------------------------------------------------------------------------------------
-# stable step: the smallest element size of the deformed mesh (ExplicitDynamics.stable_dt)
-
-
-@numba.njit(cache=True)
-def _quad_min_size(x, cell_dofs, out):
-    for c in range(cell_dofs.shape[0]):
-        h = np.inf
-        for k in range(4):
-            a = cell_dofs[c, k]
-            b = cell_dofs[c, (k + 1) % 4]
-            ex = x[b, 0] - x[a, 0]
-            ey = x[b, 1] - x[a, 1]
-            le = np.sqrt(ex * ex + ey * ey)
-            h = min(h, le)
-            for m in (2, 3):                   # distance of the opposite vertices from edge k's line
-                d = cell_dofs[c, (k + m) % 4]
-                dx = x[d, 0] - x[a, 0]
-                dy = x[d, 1] - x[a, 1]
-                h = min(h, abs(ex * dy - ey * dx) / max(le, 1e-300))
-        out[c] = h
-    return out
-
-
-def quad_min_size(P):
-    """Smallest edge length or altitude (distance of a vertex from an opposite edge's line) of
-    each quad; P (n, 4, 2) vertices in cyclic order."""
-    P = np.ascontiguousarray(P, dtype=float)
-    n = P.shape[0]
-    cd = np.arange(4 * n, dtype=np.int64).reshape(n, 4)
-    return _quad_min_size(P.reshape(-1, 2), cd, np.empty(n))
-
-
-_G = 1.0 / np.sqrt(3.0)
-_XI = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])    # cyclic vertex order
-
-
-@numba.njit(cache=True)
-def _quad_eig_dt(x, cell_dofs, cells, mass, lam, mu, axisymmetric, fbar, out):
-    """2 / omega_max of the listed cells' elastic elements: out[k] for cell ``cells[k]``.
-
-    omega_max^2 is the largest eigenvalue of M^-1/2 K M^-1/2 with K the small-strain elastic
-    stiffness of the cell in its current shape x (2 x 2 Gauss points, weight 2 pi r in
-    axisymmetry, hoop strain u_r / r; fbar: the volumetric part through the cell's mean
-    dilatation, as Q1/P0 does) with moduli lam[c], mu[c] [MPa], and M the cell's share of its
-    nodes' lumped mass mass[c] (4,) [tonne] (cyclic order). By Irons' theorem the assembled
-    system's omega_max is at most the largest element value.
-    """
-    B = np.zeros((4, 4, 8))
-    W = np.zeros(4)
-    K = np.zeros((8, 8))
-    for k in range(cells.shape[0]):
-        c = cells[k]
-        lm, m = lam[c], mu[c]
-        kap = lm + 2.0 * m / 3.0
-        B[:] = 0.0
-        vol = 0.0
-        q = 0
-        for a in range(2):
-            for b in range(2):
-                xi = (2 * a - 1) * _G
-                eta = (2 * b - 1) * _G
-                j00 = j01 = j10 = j11 = 0.0
-                r = 0.0
-                N = np.empty(4)
-                dN = np.empty((4, 2))
-                for v in range(4):
-                    N[v] = 0.25 * (1.0 + xi * _XI[v, 0]) * (1.0 + eta * _XI[v, 1])
-                    dN[v, 0] = 0.25 * _XI[v, 0] * (1.0 + eta * _XI[v, 1])
-                    dN[v, 1] = 0.25 * _XI[v, 1] * (1.0 + xi * _XI[v, 0])
-                    px = x[cell_dofs[c, v], 0]
-                    py = x[cell_dofs[c, v], 1]
-                    j00 += dN[v, 0] * px
-                    j01 += dN[v, 1] * px
-                    j10 += dN[v, 0] * py
-                    j11 += dN[v, 1] * py
-                    r += N[v] * px
-                det = j00 * j11 - j01 * j10
-                w = abs(det) * (2.0 * np.pi * r if axisymmetric else 1.0)
-                W[q] = w
-                vol += w
-                for v in range(4):
-                    # d N / d x = J^-T d N / d xi, J = [[dx/dxi, dx/deta], [dy/dxi, dy/deta]]
-                    gx = (j11 * dN[v, 0] - j10 * dN[v, 1]) / det
-                    gy = (-j01 * dN[v, 0] + j00 * dN[v, 1]) / det
-                    B[q, 0, 2 * v] = gx                  # rr
-                    B[q, 1, 2 * v + 1] = gy              # zz
-                    if axisymmetric:
-                        B[q, 2, 2 * v] = N[v] / r        # hoop
-                    B[q, 3, 2 * v] = gy                  # engineering shear
-                    B[q, 3, 2 * v + 1] = gx
-                q += 1
-        bbar = np.zeros(8)
-        for q in range(4):
-            for i in range(8):
-                bbar[i] += (B[q, 0, i] + B[q, 1, i] + B[q, 2, i]) * W[q] / vol
-        K[:] = 0.0
-        for q in range(4):
-            tr = B[q, 0] + B[q, 1] + B[q, 2]
-            vb = bbar if fbar else tr
-            for i in range(8):
-                for j in range(8):
-                    dev = 0.0
-                    for s in range(3):
-                        dev += 2.0 * m * (B[q, s, i] - tr[i] / 3.0) * (B[q, s, j] - tr[j] / 3.0)
-                    dev += m * B[q, 3, i] * B[q, 3, j]
-                    K[i, j] += (dev + kap * vb[i] * vb[j]) * W[q]
-        out[k] = element_step(K, mass[c], 2)
-    return out
-
-
-@numba.njit(cache=True)
-def element_step(K, mass_c, bs):
-    """2 / omega_max [s] of an element of stiffness K (n, n) [N/mm] and nodal masses mass_c (n / bs,)
-    [tonne] (bs dofs per node): omega_max^2 the largest eigenvalue of M^-1/2 K M^-1/2 (inf if none is
-    positive). K is overwritten. Quadrilaterals (:func:`_quad_eig_dt`) and hexahedra
-    (:func:`fenics_plast.solvers.hex_step.hex_eig_dt`)."""
-    n = K.shape[0]
-    for i in range(n):
-        for j in range(n):
-            K[i, j] /= np.sqrt(mass_c[i // bs] * mass_c[j // bs])
-    w2 = np.linalg.eigvalsh(K)[-1]
-    return 2.0 / np.sqrt(w2) if w2 > 0.0 else np.inf
-
-
-@numba.njit(cache=True)
-def _lazy_min(d, order, x, cell_dofs, mass, lam, mu, scale_sqrt, axisymmetric, fbar):
-    """min over the cells of max(d[c], e[c] sqrt(s_c)) (e: :func:`_quad_eig_dt`), visiting the cells in
-    the order of d (ascending, ``order``) and stopping when d reaches the minimum found: the
-    eigenvalue is computed for the few cells whose size estimate d is below the result. Returns
-    (minimum, cell)."""
-    best = np.inf
-    arg = -1
-    one = np.empty(1, dtype=np.int64)
-    e = np.empty(1)
-    for k in range(order.shape[0]):
-        c = order[k]
-        if d[c] >= best:
-            break
-        one[0] = c
-        _quad_eig_dt(x, cell_dofs, one, mass, lam, mu, axisymmetric, fbar, e)
-        v = max(d[c], e[0] * scale_sqrt[c])
-        if v < best:
-            best = v
-            arg = c
-    return best, arg
 
 
 # ----------------------------------------------------------------------------------------------
@@ -408,245 +260,6 @@ def kick_general(v, a, f, fload, fcon, free_minv, mass, du, dt, n, pdofs, pset, 
         reac[j] = r
     settle_walls(v, du, mass, f, fload, fcon, walls)
     return w_int, w_load
-
-
-PLANE, CIRCLE, GENERIC = 0, 1, -1
-SPHERE, CYLINDER, TORUS = 2, 3, 4           # 3-D kinds (PLANE and GENERIC serve both dimensions)
-COULOMB, QUASI_COULOMB = 0, 1
-_TINY = 1e-300                              # as fenics_plast.tools._TINY: guarded normals
-
-
-@_njit
-def contact_forces(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, mu, law, gN,
-                   t_hist, N_hist, p_hist, t_scal, slip, fc, acc, pen, trans_old, trans_new, fcon):
-    """Penalty contact of nodes against rigid tools, Coulomb friction as elastoplastic slip.
-
-    Nodes k (all pairs concatenated): cdofs (nc, 2) their owned dofs, X (nc, 2) reference position
-    [mm], cpair (nc,) pair index, area (nc,) tributary area int N_k w dA0 [mm^2]. Per pair p:
-    kind PLANE (params: point x, y, normal x, y), CIRCLE (params: centre x, y, radius, -) or
-    GENERIC (gap and normal given in gN (nc, 3) = (g, N_x, N_y), computed by the tool's gap_np);
-    eps, eps_t normal and tangential penalties [N/mm^3], mu, law COULOMB | QUASI_COULOMB;
-    trans_old, trans_new (npairs, 2) tool translation at t_n, t_{n+1} [mm].
-
-    p = eps <-g> [MPa]; trial tangential traction t_tr = T . t_n - eps_t T . (du - dd) (T = (N_y,
-    -N_x), t_n the traction vector of the last step, dd the tool's translation over the step),
-    t = clamp(t_tr, -mu p_b, mu p_b); coulomb: N, p_b current, quasi-coulomb: N, p_b of the last
-    step (history) and t = 0 out of contact. Force on the body fc = area (p N + t T) [N].
-
-    History (t_hist (nc,2) [MPa], N_hist (nc,2), p_hist (nc,) [MPa], t_scal (nc,) [MPa]), the status
-    slip (nc,) (1: in contact and slipping, i.e. |t_tr| > mu p_b or frictionless) and fc (nc, 2) [N]
-    are updated in place; fcon (owned dofs) gets the nodal forces (zeroed first on the
-    contact dofs). acc (npairs, 4) += contact energy E_c, tool work, impulse x, impulse y [N mm,
-    N mm, N s, N s] (trapezoidal); pen (npairs,) running max of -g [mm].
-
-    3-D (X (nc, 3)): :func:`contact_forces_3d`, the same law with vectors (shapes there).
-    """
-    if X.shape[1] == 3:
-        contact_forces_3d(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, mu, law, gN,
-                          t_hist, N_hist, p_hist, t_scal, slip, fc, acc, pen, trans_old, trans_new, fcon)
-        return
-    nc = X.shape[0]
-    for k in range(nc):
-        fcon[cdofs[k, 0]] = 0.0
-        fcon[cdofs[k, 1]] = 0.0
-    for k in range(nc):
-        pr = cpair[k]
-        ix = cdofs[k, 0]
-        iy = cdofs[k, 1]
-        x = X[k, 0] + u[ix]
-        y = X[k, 1] + u[iy]
-        ddx = trans_new[pr, 0] - trans_old[pr, 0]
-        ddy = trans_new[pr, 1] - trans_old[pr, 1]
-        kd = kind[pr]
-        if kd == PLANE:
-            nx = params[pr, 2]
-            ny = params[pr, 3]
-            g = (x - (params[pr, 0] + trans_new[pr, 0])) * nx + (y - (params[pr, 1] + trans_new[pr, 1])) * ny
-        elif kd == CIRCLE:
-            rx = x - (params[pr, 0] + trans_new[pr, 0])
-            ry = y - (params[pr, 1] + trans_new[pr, 1])
-            dist = np.sqrt(rx * rx + ry * ry)
-            g = dist - params[pr, 2]
-            nx = rx / dist
-            ny = ry / dist
-        else:
-            g = gN[k, 0]
-            nx = gN[k, 1]
-            ny = gN[k, 2]
-        p = eps[pr] * (-g) if g < 0.0 else 0.0
-        sx = du[ix] - ddx
-        sy = du[iy] - ddy
-        t = 0.0
-        tx = 0.0
-        ty = 0.0
-        sl = 1.0 if g < 0.0 else 0.0
-        if mu[pr] > 0.0:
-            if law[pr] == COULOMB:
-                nfx, nfy, bound, active = nx, ny, mu[pr] * p, True
-            else:
-                nfx, nfy, bound, active = N_hist[k, 0], N_hist[k, 1], mu[pr] * p_hist[k], g < 0.0
-            tx = nfy
-            ty = -nfx
-            ttr = tx * t_hist[k, 0] + ty * t_hist[k, 1] - eps_t[pr] * (tx * sx + ty * sy)
-            if active:
-                t = min(max(ttr, -bound), bound)
-            sl = 1.0 if (g < 0.0 and active and abs(ttr) > bound) else 0.0
-        A = area[k]
-        fx = A * (p * nx + t * tx)
-        fy = A * (p * ny + t * ty)
-        mx = 0.5 * (fc[k, 0] + fx)
-        my = 0.5 * (fc[k, 1] + fy)
-        acc[pr, 0] -= mx * sx + my * sy
-        acc[pr, 1] += mx * ddx + my * ddy
-        acc[pr, 2] += dt * mx
-        acc[pr, 3] += dt * my
-        fc[k, 0] = fx
-        fc[k, 1] = fy
-        fcon[ix] += fx
-        fcon[iy] += fy
-        t_hist[k, 0] = t * tx
-        t_hist[k, 1] = t * ty
-        N_hist[k, 0] = nx
-        N_hist[k, 1] = ny
-        p_hist[k] = p
-        t_scal[k] = t
-        slip[k] = sl
-        if -g > pen[pr]:
-            pen[pr] = -g
-
-
-@_njit
-def _tool_gap_3d(kd, prm, tr, x, N):
-    """Gap [mm] of the point x (3,) to a compiled 3-D tool of kind kd, parameters prm (8,) and
-    translation tr (3,) [mm]; its unit normal (tool into body) into N (3,).
-
-    PLANE (point (3), normal (3)); SPHERE (centre (3), radius); CYLINDER (point on the axis (3),
-    unit axis (3), radius); TORUS (centre (3), unit axis (3), ring radius, tube radius).  Normals
-    are guarded with _TINY where they are undefined (sphere centre, cylinder or torus axis)."""
-    y0 = x[0] - (prm[0] + tr[0])
-    y1 = x[1] - (prm[1] + tr[1])
-    y2 = x[2] - (prm[2] + tr[2])
-    if kd == PLANE:
-        N[0] = prm[3]
-        N[1] = prm[4]
-        N[2] = prm[5]
-        return y0 * N[0] + y1 * N[1] + y2 * N[2]
-    if kd == SPHERE:
-        dist = np.sqrt(y0 * y0 + y1 * y1 + y2 * y2 + _TINY)
-        N[0] = y0 / dist
-        N[1] = y1 / dist
-        N[2] = y2 / dist
-        return dist - prm[3]
-    a = y0 * prm[3] + y1 * prm[4] + y2 * prm[5]            # axial coordinate
-    r0 = y0 - a * prm[3]
-    r1 = y1 - a * prm[4]
-    r2 = y2 - a * prm[5]
-    rho = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2 + _TINY)
-    if kd == CYLINDER:
-        N[0] = r0 / rho
-        N[1] = r1 / rho
-        N[2] = r2 / rho
-        return rho - prm[6]
-    # TORUS: distance to the centre circle of radius prm[6] in the plane a = 0
-    dr = rho - prm[6]
-    dist = np.sqrt(dr * dr + a * a + _TINY)
-    N[0] = dr / dist * r0 / rho + a / dist * prm[3]
-    N[1] = dr / dist * r1 / rho + a / dist * prm[4]
-    N[2] = dr / dist * r2 / rho + a / dist * prm[5]
-    return dist - prm[7]
-
-
-@_njit
-def contact_forces_3d(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, mu, law, gN,
-                      t_hist, N_hist, p_hist, t_scal, slip, fc, acc, pen, trans_old, trans_new, fcon):
-    """:func:`contact_forces` in 3-D: the tangential traction is a vector of the tangent plane.
-
-    Shapes: X (nc, 3) [mm], cdofs (nc, 3), params (npairs, 8) (see :func:`_tool_gap_3d`; kinds
-    PLANE, SPHERE, CYLINDER, TORUS, or GENERIC with gN (nc, 4) = (g, N) from the tool's gap_np),
-    trans_old, trans_new (npairs, 3) [mm], t_hist (nc, 3) [MPa], N_hist (nc, 3), fc (nc, 3) [N],
-    acc (npairs, 5) += (E_c, tool work, impulse x, y, z) [N mm, N mm, N s x 3].
-
-    p = eps <-g>; with the relative displacement increment s = du - dd and the normal N_f of the
-    tangent plane (coulomb: N now, bound mu p; quasi-coulomb: N_hist, bound mu p_hist, t = 0 out
-    of contact), P_T = I - N_f N_f^T: t_tr = P_T (t_n - eps_t s), t = t_tr if |t_tr| <= bound, else
-    bound t_tr / |t_tr| (return map on the norm; 2-D: T T^T = P_T, the same law).  t_hist gets the
-    vector t, t_scal its norm |t| [MPa]; slip, fc, fcon, N_hist, p_hist, pen as in 2-D.
-    """
-    nc = X.shape[0]
-    x = np.empty(3)
-    N = np.empty(3)
-    for k in range(nc):
-        for j in range(3):
-            fcon[cdofs[k, j]] = 0.0
-    for k in range(nc):
-        pr = cpair[k]
-        for j in range(3):
-            x[j] = X[k, j] + u[cdofs[k, j]]
-        kd = kind[pr]
-        if kd == GENERIC:
-            g = gN[k, 0]
-            for j in range(3):
-                N[j] = gN[k, 1 + j]
-        else:
-            g = _tool_gap_3d(kd, params[pr], trans_new[pr], x, N)
-        p = eps[pr] * (-g) if g < 0.0 else 0.0
-        s0 = du[cdofs[k, 0]] - (trans_new[pr, 0] - trans_old[pr, 0])
-        s1 = du[cdofs[k, 1]] - (trans_new[pr, 1] - trans_old[pr, 1])
-        s2 = du[cdofs[k, 2]] - (trans_new[pr, 2] - trans_old[pr, 2])
-        t0 = 0.0
-        t1 = 0.0
-        t2 = 0.0
-        sl = 1.0 if g < 0.0 else 0.0
-        if mu[pr] > 0.0:
-            if law[pr] == COULOMB:
-                nf0, nf1, nf2, bound, active = N[0], N[1], N[2], mu[pr] * p, True
-            else:
-                nf0, nf1, nf2 = N_hist[k, 0], N_hist[k, 1], N_hist[k, 2]
-                bound, active = mu[pr] * p_hist[k], g < 0.0
-            q0 = t_hist[k, 0] - eps_t[pr] * s0
-            q1 = t_hist[k, 1] - eps_t[pr] * s1
-            q2 = t_hist[k, 2] - eps_t[pr] * s2
-            qn = q0 * nf0 + q1 * nf1 + q2 * nf2
-            q0 -= qn * nf0
-            q1 -= qn * nf1
-            q2 -= qn * nf2
-            norm = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
-            over = norm > bound
-            if active:
-                scale = bound / norm if over else 1.0
-                t0 = scale * q0
-                t1 = scale * q1
-                t2 = scale * q2
-            sl = 1.0 if (g < 0.0 and active and over) else 0.0
-        A = area[k]
-        f0 = A * (p * N[0] + t0)
-        f1 = A * (p * N[1] + t1)
-        f2 = A * (p * N[2] + t2)
-        m0 = 0.5 * (fc[k, 0] + f0)
-        m1 = 0.5 * (fc[k, 1] + f1)
-        m2 = 0.5 * (fc[k, 2] + f2)
-        acc[pr, 0] -= m0 * s0 + m1 * s1 + m2 * s2
-        acc[pr, 1] += (m0 * (trans_new[pr, 0] - trans_old[pr, 0]) + m1 * (trans_new[pr, 1] - trans_old[pr, 1])
-                       + m2 * (trans_new[pr, 2] - trans_old[pr, 2]))
-        acc[pr, 2] += dt * m0
-        acc[pr, 3] += dt * m1
-        acc[pr, 4] += dt * m2
-        fc[k, 0] = f0
-        fc[k, 1] = f1
-        fc[k, 2] = f2
-        fcon[cdofs[k, 0]] += f0
-        fcon[cdofs[k, 1]] += f1
-        fcon[cdofs[k, 2]] += f2
-        t_hist[k, 0] = t0
-        t_hist[k, 1] = t1
-        t_hist[k, 2] = t2
-        for j in range(3):
-            N_hist[k, j] = N[j]
-        p_hist[k] = p
-        t_scal[k] = np.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
-        slip[k] = sl
-        if -g > pen[pr]:
-            pen[pr] = -g
 
 
 @_njit

@@ -1,0 +1,94 @@
+"""What a run writes from its solver besides the history rows: fields.xdmf opened with the mesh, the
+checkpointer of ``output.checkpoint_every`` / ``--resume``, final_shape.csv (deformed cells and their
+mean eqps [-], temperature [K]), the declared plots, and the contact pairs' penetration reports
+(penetration [mm] over the depth [mm] of the cells along the group, warnings naming the penalty
+[N/mm^3]). Shared by :mod:`fenics_plast.runner_static` and :mod:`fenics_plast.runner_explicit`.
+"""
+from __future__ import annotations
+
+import sys
+
+from dolfinx import io
+
+from fenics_plast.checkpoint import Checkpointer, scene_settings
+
+__all__ = ["open_fields", "checkpointer", "write_final_shape", "draw_plots", "penetration_report", "warn",
+           "PENETRATION_WARNING"]
+
+
+#: a contact pair whose largest penetration exceeds this fraction of the depth of the cells along its
+#: group is reported as not to be trusted (log and summary.json "warnings")
+PENETRATION_WARNING = 0.05
+
+
+def warn(comm, msg: str) -> None:
+    """A warning line on stderr (rank 0), whatever the progress display (FENICS_PLAST_PROGRESS=off too)."""
+    if comm is None or comm.rank == 0:
+        print(f"warning: {msg}", file=sys.stderr, flush=True)
+
+
+def penetration_report(name, penetration, depth, penalty, default_penalty, comm) -> dict:
+    """summary.json entries of contact pair ``name``: its largest penetration [mm] over the depth [mm]
+    of the cells along its group (``<name>_penetration_per_cell_depth``) and, above
+    PENETRATION_WARNING, a warning (:func:`warn`, and in the list "warnings") naming the penalty used
+    and the pair's default one [N/mm^3]."""
+    ratio = penetration / depth if depth > 0 else 0.0
+    out = {f"{name}_penetration_per_cell_depth": ratio, "warnings": []}
+    if ratio > PENETRATION_WARNING:
+        if penalty < default_penalty:
+            cause = (f"the penalty {penalty:.3g} N/mm^3 is too soft for this load (this pair's default is "
+                     f"{default_penalty:.3g} N/mm^3)")
+        else:
+            cause = (f"the penalty {penalty:.3g} N/mm^3 ({penalty / default_penalty:.3g} times this pair's default) "
+                     f"is still too soft for this load: a stiffer one (explicit: a shorter stable step) or finer "
+                     f"cells along the group lower it")
+        msg = (f"contact.{name}: the largest penetration, {penetration:.3g} mm, is {100 * ratio:.3g} % of the "
+               f"depth of the cells along its group ({depth:.3g} mm; more than {100 * PENETRATION_WARNING:g} %): "
+               f"{cause}; its forces and the shape near it cannot be trusted to better than that")
+        warn(comm, msg)
+        out["warnings"].append(msg)
+    return out
+
+
+def open_fields(problem, output, comm, mesh):
+    if not problem.output.xdmf:
+        return None
+    xf = io.XDMFFile(comm, str(output.xdmf_path), "w")
+    xf.write_mesh(mesh)
+    return xf
+
+
+def checkpointer(problem, output, comm):
+    every = int(problem.output.checkpoint_every)
+    resume = bool(getattr(output, "resume", False))
+    if not (every > 0 or resume):
+        return None
+    return Checkpointer(output.out_dir, comm, scene_settings(problem), problem.analysis.type, every=every,
+                        resume=resume, output=output)
+
+
+def write_final_shape(problem, output, V, positions, qmap):
+    """final_shape.csv (deformed cells and their mean eqps, and temperature with Johnson-Cook materials)
+    when the scene declares a shape plot; collective."""
+    if not any(p.type == "shape" for p in problem.plots.values()):
+        return
+    from fenics_plast.plots import cells_table
+    table = cells_table(V, positions, qmap.cell_mean(qmap.eqps, name="eqps"), "eqps")
+    if qmap.thermal:
+        table["temperature"] = cells_table(V, positions, qmap.cell_mean(qmap.temperature, name="temperature"),
+                                           "temperature")["temperature"]
+    output.write_csv("final_shape", table)
+
+
+def draw_plots(problem, output):
+    """The scene's [plots] as PNGs (rank 0); a figure that fails is logged and does not fail the run."""
+    if not problem.output.plots or not output.is_root or not problem.plots:
+        return
+    from fenics_plast.plots import draw_declared
+    from fenics_plast.quantities import study_keys
+    output.close_history()
+    try:
+        draw_declared(output.out_dir, problem.to_dict(), title=problem.name,
+                      references=study_keys(problem.outputs)["references"])
+    except Exception as e:  # noqa: BLE001 - plots are a by-product; the results stand
+        output.log(f"warning: plots of {output.out_dir} not drawn: {type(e).__name__}: {e}")

@@ -1,0 +1,262 @@
+r"""Compiled penalty contact of body nodes against rigid tools, Coulomb friction as elastoplastic slip.
+
+The kernels of :mod:`fenics_plast.solvers.explicit_contact` (which builds their arrays: nodes, tributary
+areas, tools' kinds and parameters, penalties, the nodal history): :func:`contact_forces` (2-D;
+it hands 3-D data to :func:`contact_forces_3d`) and the compiled gaps of the 3-D tools
+(:func:`_tool_gap_3d`). Called every step by the explicit solver's integrator
+(:mod:`fenics_plast.solvers.integrator`). Units mm, N, MPa, s.
+
+Per pair (trapezoidal over each step, du the node's displacement increment and dd the tool's
+translation over the step): energy taken up by the contact (penalty energy + frictional dissipation)
+E_c += -(f_c,n + f_c,n+1)/2 . (du - dd), and the work of the moving tool
+W_tool += (F_c,n + F_c,n+1)/2 . dd.
+
+Codes: tool kinds :data:`PLANE`, :data:`CIRCLE` (2-D), :data:`SPHERE`, :data:`CYLINDER`,
+:data:`TORUS` (3-D), :data:`GENERIC` (gap and normal given, from the tool's ``gap_np``); friction
+laws :data:`COULOMB`, :data:`QUASI_COULOMB`.
+"""
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from fenics_plast.tools import TINY
+
+_njit = numba.njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
+
+PLANE, CIRCLE, GENERIC = 0, 1, -1
+SPHERE, CYLINDER, TORUS = 2, 3, 4           # 3-D kinds (PLANE and GENERIC serve both dimensions)
+COULOMB, QUASI_COULOMB = 0, 1
+
+
+@_njit
+def contact_forces(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, mu, law, gN,
+                   t_hist, N_hist, p_hist, t_scal, slip, fc, acc, pen, trans_old, trans_new, fcon):
+    """Penalty contact of nodes against rigid tools, Coulomb friction as elastoplastic slip.
+
+    Nodes k (all pairs concatenated): cdofs (nc, 2) their owned dofs, X (nc, 2) reference position
+    [mm], cpair (nc,) pair index, area (nc,) tributary area int N_k w dA0 [mm^2]. Per pair p:
+    kind PLANE (params: point x, y, normal x, y), CIRCLE (params: centre x, y, radius, -) or
+    GENERIC (gap and normal given in gN (nc, 3) = (g, N_x, N_y), computed by the tool's gap_np);
+    eps, eps_t normal and tangential penalties [N/mm^3], mu, law COULOMB | QUASI_COULOMB;
+    trans_old, trans_new (npairs, 2) tool translation at t_n, t_{n+1} [mm].
+
+    p = eps <-g> [MPa]; trial tangential traction t_tr = T . t_n - eps_t T . (du - dd) (T = (N_y,
+    -N_x), t_n the traction vector of the last step, dd the tool's translation over the step),
+    t = clamp(t_tr, -mu p_b, mu p_b); coulomb: N, p_b current, quasi-coulomb: N, p_b of the last
+    step (history) and t = 0 out of contact. Force on the body fc = area (p N + t T) [N].
+
+    History (t_hist (nc,2) [MPa], N_hist (nc,2), p_hist (nc,) [MPa], t_scal (nc,) [MPa]), the status
+    slip (nc,) (1: in contact and slipping, i.e. |t_tr| > mu p_b or frictionless) and fc (nc, 2) [N]
+    are updated in place; fcon (owned dofs) gets the nodal forces (zeroed first on the
+    contact dofs). acc (npairs, 4) += contact energy E_c, tool work, impulse x, impulse y [N mm,
+    N mm, N s, N s] (trapezoidal); pen (npairs,) running max of -g [mm].
+
+    3-D (X (nc, 3)): :func:`contact_forces_3d`, the same law with vectors (shapes there).
+    """
+    if X.shape[1] == 3:
+        contact_forces_3d(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, mu, law, gN,
+                          t_hist, N_hist, p_hist, t_scal, slip, fc, acc, pen, trans_old, trans_new, fcon)
+        return
+    nc = X.shape[0]
+    for k in range(nc):
+        fcon[cdofs[k, 0]] = 0.0
+        fcon[cdofs[k, 1]] = 0.0
+    for k in range(nc):
+        pr = cpair[k]
+        ix = cdofs[k, 0]
+        iy = cdofs[k, 1]
+        x = X[k, 0] + u[ix]
+        y = X[k, 1] + u[iy]
+        ddx = trans_new[pr, 0] - trans_old[pr, 0]
+        ddy = trans_new[pr, 1] - trans_old[pr, 1]
+        kd = kind[pr]
+        if kd == PLANE:
+            nx = params[pr, 2]
+            ny = params[pr, 3]
+            g = (x - (params[pr, 0] + trans_new[pr, 0])) * nx + (y - (params[pr, 1] + trans_new[pr, 1])) * ny
+        elif kd == CIRCLE:
+            rx = x - (params[pr, 0] + trans_new[pr, 0])
+            ry = y - (params[pr, 1] + trans_new[pr, 1])
+            dist = np.sqrt(rx * rx + ry * ry)
+            g = dist - params[pr, 2]
+            nx = rx / dist
+            ny = ry / dist
+        else:
+            g = gN[k, 0]
+            nx = gN[k, 1]
+            ny = gN[k, 2]
+        p = eps[pr] * (-g) if g < 0.0 else 0.0
+        sx = du[ix] - ddx
+        sy = du[iy] - ddy
+        t = 0.0
+        tx = 0.0
+        ty = 0.0
+        sl = 1.0 if g < 0.0 else 0.0
+        if mu[pr] > 0.0:
+            if law[pr] == COULOMB:
+                nfx, nfy, bound, active = nx, ny, mu[pr] * p, True
+            else:
+                nfx, nfy, bound, active = N_hist[k, 0], N_hist[k, 1], mu[pr] * p_hist[k], g < 0.0
+            tx = nfy
+            ty = -nfx
+            ttr = tx * t_hist[k, 0] + ty * t_hist[k, 1] - eps_t[pr] * (tx * sx + ty * sy)
+            if active:
+                t = min(max(ttr, -bound), bound)
+            sl = 1.0 if (g < 0.0 and active and abs(ttr) > bound) else 0.0
+        A = area[k]
+        fx = A * (p * nx + t * tx)
+        fy = A * (p * ny + t * ty)
+        mx = 0.5 * (fc[k, 0] + fx)
+        my = 0.5 * (fc[k, 1] + fy)
+        acc[pr, 0] -= mx * sx + my * sy
+        acc[pr, 1] += mx * ddx + my * ddy
+        acc[pr, 2] += dt * mx
+        acc[pr, 3] += dt * my
+        fc[k, 0] = fx
+        fc[k, 1] = fy
+        fcon[ix] += fx
+        fcon[iy] += fy
+        t_hist[k, 0] = t * tx
+        t_hist[k, 1] = t * ty
+        N_hist[k, 0] = nx
+        N_hist[k, 1] = ny
+        p_hist[k] = p
+        t_scal[k] = t
+        slip[k] = sl
+        if -g > pen[pr]:
+            pen[pr] = -g
+
+
+@_njit
+def _tool_gap_3d(kd, prm, tr, x, N):
+    """Gap [mm] of the point x (3,) to a compiled 3-D tool of kind kd, parameters prm (8,) and
+    translation tr (3,) [mm]; its unit normal (tool into body) into N (3,).
+
+    PLANE (point (3), normal (3)); SPHERE (centre (3), radius); CYLINDER (point on the axis (3),
+    unit axis (3), radius); TORUS (centre (3), unit axis (3), ring radius, tube radius).  Normals
+    are guarded with TINY where they are undefined (sphere centre, cylinder or torus axis)."""
+    y0 = x[0] - (prm[0] + tr[0])
+    y1 = x[1] - (prm[1] + tr[1])
+    y2 = x[2] - (prm[2] + tr[2])
+    if kd == PLANE:
+        N[0] = prm[3]
+        N[1] = prm[4]
+        N[2] = prm[5]
+        return y0 * N[0] + y1 * N[1] + y2 * N[2]
+    if kd == SPHERE:
+        dist = np.sqrt(y0 * y0 + y1 * y1 + y2 * y2 + TINY)
+        N[0] = y0 / dist
+        N[1] = y1 / dist
+        N[2] = y2 / dist
+        return dist - prm[3]
+    a = y0 * prm[3] + y1 * prm[4] + y2 * prm[5]            # axial coordinate
+    r0 = y0 - a * prm[3]
+    r1 = y1 - a * prm[4]
+    r2 = y2 - a * prm[5]
+    rho = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2 + TINY)
+    if kd == CYLINDER:
+        N[0] = r0 / rho
+        N[1] = r1 / rho
+        N[2] = r2 / rho
+        return rho - prm[6]
+    # TORUS: distance to the centre circle of radius prm[6] in the plane a = 0
+    dr = rho - prm[6]
+    dist = np.sqrt(dr * dr + a * a + TINY)
+    N[0] = dr / dist * r0 / rho + a / dist * prm[3]
+    N[1] = dr / dist * r1 / rho + a / dist * prm[4]
+    N[2] = dr / dist * r2 / rho + a / dist * prm[5]
+    return dist - prm[7]
+
+
+@_njit
+def contact_forces_3d(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, mu, law, gN,
+                      t_hist, N_hist, p_hist, t_scal, slip, fc, acc, pen, trans_old, trans_new, fcon):
+    """:func:`contact_forces` in 3-D: the tangential traction is a vector of the tangent plane.
+
+    Shapes: X (nc, 3) [mm], cdofs (nc, 3), params (npairs, 8) (see :func:`_tool_gap_3d`; kinds
+    PLANE, SPHERE, CYLINDER, TORUS, or GENERIC with gN (nc, 4) = (g, N) from the tool's gap_np),
+    trans_old, trans_new (npairs, 3) [mm], t_hist (nc, 3) [MPa], N_hist (nc, 3), fc (nc, 3) [N],
+    acc (npairs, 5) += (E_c, tool work, impulse x, y, z) [N mm, N mm, N s x 3].
+
+    p = eps <-g>; with the relative displacement increment s = du - dd and the normal N_f of the
+    tangent plane (coulomb: N now, bound mu p; quasi-coulomb: N_hist, bound mu p_hist, t = 0 out
+    of contact), P_T = I - N_f N_f^T: t_tr = P_T (t_n - eps_t s), t = t_tr if |t_tr| <= bound, else
+    bound t_tr / |t_tr| (return map on the norm; 2-D: T T^T = P_T, the same law).  t_hist gets the
+    vector t, t_scal its norm |t| [MPa]; slip, fc, fcon, N_hist, p_hist, pen as in 2-D.
+    """
+    nc = X.shape[0]
+    x = np.empty(3)
+    N = np.empty(3)
+    for k in range(nc):
+        for j in range(3):
+            fcon[cdofs[k, j]] = 0.0
+    for k in range(nc):
+        pr = cpair[k]
+        for j in range(3):
+            x[j] = X[k, j] + u[cdofs[k, j]]
+        kd = kind[pr]
+        if kd == GENERIC:
+            g = gN[k, 0]
+            for j in range(3):
+                N[j] = gN[k, 1 + j]
+        else:
+            g = _tool_gap_3d(kd, params[pr], trans_new[pr], x, N)
+        p = eps[pr] * (-g) if g < 0.0 else 0.0
+        s0 = du[cdofs[k, 0]] - (trans_new[pr, 0] - trans_old[pr, 0])
+        s1 = du[cdofs[k, 1]] - (trans_new[pr, 1] - trans_old[pr, 1])
+        s2 = du[cdofs[k, 2]] - (trans_new[pr, 2] - trans_old[pr, 2])
+        t0 = 0.0
+        t1 = 0.0
+        t2 = 0.0
+        sl = 1.0 if g < 0.0 else 0.0
+        if mu[pr] > 0.0:
+            if law[pr] == COULOMB:
+                nf0, nf1, nf2, bound, active = N[0], N[1], N[2], mu[pr] * p, True
+            else:
+                nf0, nf1, nf2 = N_hist[k, 0], N_hist[k, 1], N_hist[k, 2]
+                bound, active = mu[pr] * p_hist[k], g < 0.0
+            q0 = t_hist[k, 0] - eps_t[pr] * s0
+            q1 = t_hist[k, 1] - eps_t[pr] * s1
+            q2 = t_hist[k, 2] - eps_t[pr] * s2
+            qn = q0 * nf0 + q1 * nf1 + q2 * nf2
+            q0 -= qn * nf0
+            q1 -= qn * nf1
+            q2 -= qn * nf2
+            norm = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
+            over = norm > bound
+            if active:
+                scale = bound / norm if over else 1.0
+                t0 = scale * q0
+                t1 = scale * q1
+                t2 = scale * q2
+            sl = 1.0 if (g < 0.0 and active and over) else 0.0
+        A = area[k]
+        f0 = A * (p * N[0] + t0)
+        f1 = A * (p * N[1] + t1)
+        f2 = A * (p * N[2] + t2)
+        m0 = 0.5 * (fc[k, 0] + f0)
+        m1 = 0.5 * (fc[k, 1] + f1)
+        m2 = 0.5 * (fc[k, 2] + f2)
+        acc[pr, 0] -= m0 * s0 + m1 * s1 + m2 * s2
+        acc[pr, 1] += (m0 * (trans_new[pr, 0] - trans_old[pr, 0]) + m1 * (trans_new[pr, 1] - trans_old[pr, 1])
+                       + m2 * (trans_new[pr, 2] - trans_old[pr, 2]))
+        acc[pr, 2] += dt * m0
+        acc[pr, 3] += dt * m1
+        acc[pr, 4] += dt * m2
+        fc[k, 0] = f0
+        fc[k, 1] = f1
+        fc[k, 2] = f2
+        fcon[cdofs[k, 0]] += f0
+        fcon[cdofs[k, 1]] += f1
+        fcon[cdofs[k, 2]] += f2
+        t_hist[k, 0] = t0
+        t_hist[k, 1] = t1
+        t_hist[k, 2] = t2
+        for j in range(3):
+            N_hist[k, j] = N[j]
+        p_hist[k] = p
+        t_scal[k] = np.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        slip[k] = sl
+        if -g > pen[pr]:
+            pen[pr] = -g
