@@ -16,14 +16,20 @@ from pathlib import Path
 __version__ = "0.1.0"
 
 
+#: package folders whose modules hold plain-Python functions that another module compiles with numba
+#: (they need not mention it): the hardening laws' flow functions
+COMPILED_ELSEWHERE = ("hardening_laws",)
+
+
 def kernel_source_digest() -> str:
-    """16 hex digits of the SHA-256 of the package's ``.py`` files that mention numba or njit (their
-    relative paths and contents): every compiled kernel and everything a kernel can call."""
+    """16 hex digits of the SHA-256 of the package's ``.py`` files that mention numba or njit or lie in
+    a folder of :data:`COMPILED_ELSEWHERE` (their relative paths and contents): every compiled kernel
+    and everything a kernel can call."""
     root = Path(__file__).parent
     h = hashlib.sha256()
     for f in sorted(root.rglob("*.py")):
         text = f.read_bytes()
-        if b"numba" in text or b"njit" in text:
+        if b"numba" in text or b"njit" in text or f.parent.name in COMPILED_ELSEWHERE:
             h.update(f.relative_to(root).as_posix().encode() + b"\0" + text + b"\0")
     return h.hexdigest()[:16]
 

@@ -49,9 +49,8 @@ def material_of(spec) -> Material:
     hardening = None
     if h is not None:
         kw = {k: v for k, v in h.to_dict().items() if k != "law"}
-        if h.law == "johnson_cook":
-            kw["density"] = spec.density          # tonne/mm^3: the adiabatic heating's rho c_p
-        hardening = Hardening(h.law, **kw)
+        # tonne/mm^3: a thermal law's adiabatic heating rho c_p (a law that does not declare it ignores it)
+        hardening = Hardening(h.law, density=spec.density, **kw)
     return Material(spec.E, spec.nu, hardening, model=spec.model)
 
 

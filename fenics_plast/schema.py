@@ -4,7 +4,11 @@
 (or :data:`REQUIRED` / :data:`OPTIONAL`), range or choices, unit, scale from the file's unit and
 meaning. Keys that only apply to some variants of a table (``analysis.type``,
 ``boundary.<name>.type``, ``tools.<name>.shape``, ``outputs.<name>.quantity``,
-``materials.<name>.hardening.law``) say so in ``Key.when``. The validator
+``materials.<name>.hardening.law``) say so in ``Key.when``. The ``outputs`` table's quantities,
+their own keys and which shared keys each takes come from the quantity kinds
+(:mod:`fenics_plast.quantities.registry`, one module per kind, light to import); :class:`Key` itself
+is declared in :mod:`fenics_plast.scene_key`. The ``hardening`` table's laws and their keys come
+from the law modules (:mod:`fenics_plast.hardening_laws`, standard library only). The validator
 (:mod:`fenics_plast.validation`), the ``--set`` overrides and the key reference
 (:mod:`fenics_plast.keys_doc`, docs/SCENE_KEYS.md) all read this one table, and so do the keyword
 defaults and the allowed values of the solvers, materials and tools: :func:`default` and
@@ -17,24 +21,17 @@ kept under ``<key>_as_written``): densities in kg/m^3 (:data:`KG_M3`), velocitie
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
+
+from fenics_plast.hardening_laws import laws as hardening_laws
+from fenics_plast.quantities.registry import KINDS, kind_keys, quantity_doc, taking
+from fenics_plast.scene_key import OPTIONAL, REQUIRED, Key, number_text
 
 __all__ = ["SCHEMA", "SECTIONS", "Key", "Table", "REQUIRED", "OPTIONAL", "COMPONENTS", "COMPONENTS_3D", "GEOMETRIES",
            "component_index", "component_names", "is_cell_count", "vector_size", "LAWS", "US", "M_S", "KG_M3",
            "PENALTY_FACTOR", "key", "default", "choices"]
 
-
-class _Marker:
-    def __init__(self, name: str):
-        self.name = name
-
-    def __repr__(self) -> str:
-        return self.name
-
-
-REQUIRED = _Marker("REQUIRED")   # must be given
-OPTIONAL = _Marker("OPTIONAL")   # may be omitted; then the attribute is None
 
 #: component names of vectors in 2-D: x = r and y = z (in axisymmetry; plane strain accepts the same names)
 COMPONENTS = {"x": 0, "y": 1, "r": 0, "z": 1}
@@ -64,8 +61,8 @@ def vector_size(geometry: str) -> int:
     """Entries of a point, direction or velocity in a scene of ``geometry``: 3 in 3-D, else 2."""
     return 3 if geometry == "3d" else 2
 
-LAWS = ("linear", "swift", "voce", "table", "johnson_cook")
-JC = ("johnson_cook",)
+#: the hardening laws, one module each in fenics_plast/hardening_laws/
+LAWS = tuple(hardening_laws())
 STATIC, EXPLICIT = ("static",), ("explicit",)
 US = 1e-6          # explicit times are written in microseconds
 M_S = 1e3          # velocities are written in m/s -> mm/s
@@ -73,48 +70,6 @@ KG_M3 = 1e-12      # densities are written in kg/m^3 -> tonne/mm^3
 #: contact.<name>.penalty absent: PENALTY_FACTOR * E / h (chosen by measurement, see tests/test_contact.py:
 #: penetration < 1 % of the thickness, force change < 1 % for x10; fenics_plast.tools.default_penalty)
 PENALTY_FACTOR = 0.3
-
-
-@dataclass(frozen=True)
-class Key:
-    """One scene key. ``when`` = {discriminator key: allowed values} restricts it to table variants
-    (e.g. {"type": ("static",)}); ``when_analysis`` restricts it to analysis types."""
-    type: str                       # str | int | float | bool | floats | strs | vector | values | segments | path
-    default: Any                    # a value, REQUIRED or OPTIONAL
-    doc: str
-    unit: str = ""
-    choices: tuple | None = None
-    lo: float | None = None
-    lo_open: bool = True
-    hi: float | None = None
-    hi_open: bool = True
-    when: dict | None = None
-    when_analysis: tuple | None = None
-    scale: float = 1.0              # file units -> internal units; the value as written stays in <name>_as_written
-    analysis_default: dict | None = None   # {analysis type: default} when the default depends on it
-
-    def range_text(self, name: str) -> str:
-        lo = None if self.lo is None else f"{number_text(self.lo)} {'<' if self.lo_open else '<='} "
-        hi = None if self.hi is None else f" {'<' if self.hi_open else '<='} {number_text(self.hi)}"
-        if lo and hi:
-            return f"{lo}{name}{hi}"
-        if lo:
-            return f"{name} {'>' if self.lo_open else '>='} {number_text(self.lo)}"
-        if hi:
-            return f"{name}{hi}"
-        return ""
-
-    def in_range(self, v: float) -> bool:
-        """Whether ``v`` lies in the declared range (NaN lies in no bounded range)."""
-        above = self.lo is None or (v > self.lo if self.lo_open else v >= self.lo)
-        return above and (self.hi is None or (v < self.hi if self.hi_open else v <= self.hi))
-
-
-def number_text(x) -> str:
-    """A number as a scene file would write it (400.0 -> "400", 0.25 -> "0.25")."""
-    if isinstance(x, float) and x.is_integer() and abs(x) < 1e15:
-        return str(int(x))
-    return repr(x) if isinstance(x, float) else str(x)
 
 
 def _pos(**kw):
@@ -148,6 +103,28 @@ _FORCE_UNITS = ("N", "kN")
 VALUE_DOC = ("a number, an expression of x, y, z, t in quotes (\"3.0*t\"; x, y, z are the reference "
               "(initial) coordinates [mm]; the grammar is in the README, 'Expressions'), or a table "
               "{ t = [...], value = [...] } (piecewise linear, constant outside)")
+
+def _hardening_table() -> Table:
+    """``materials.<name>.hardening``, gathered from the laws' declarations
+    (:mod:`fenics_plast.hardening_laws`): each law's keys apply when ``law`` names it; a key several laws
+    declare (alike but for the doc) is one key, its doc each law's ("law: doc") where they differ."""
+    users: dict[str, list] = {}
+    for law in hardening_laws().values():
+        for name, k in law.params.items():
+            users.setdefault(name, []).append((law.name, k))
+    keys = {"law": Key("str", REQUIRED, "Hardening law.", choices=LAWS)}
+    for name, declared in users.items():
+        first = declared[0][1]
+        for law, k in declared[1:]:
+            if replace(k, doc=first.doc) != first:
+                raise ValueError(f"hardening key {name!r}: {law} declares it unlike {declared[0][0]}")
+        docs = {k.doc for _, k in declared}
+        doc = first.doc if len(docs) == 1 else "; ".join(f"{law}: {k.doc.rstrip('.')}" for law, k in declared) + "."
+        keys[name] = replace(first, doc=doc, when={"law": tuple(law for law, _ in declared)})
+    return Table("Optional: absent = purely elastic (plasticity off). Only the keys of the chosen `law` apply. "
+                 + " ".join(f"{law.name}: {law.doc}" for law in hardening_laws().values()),
+                 discriminator="law", keys=keys)
+
 
 SCHEMA: dict[str, Table] = {
     "scene": Table("What the problem is.", optional=False, keys={
@@ -252,57 +229,7 @@ SCHEMA: dict[str, Table] = {
             "nu": Key("float", REQUIRED, "Poisson's ratio.", "", lo=-1.0, hi=0.5),
             "density": Key("float", OPTIONAL, "Mass density (required in explicit analyses).", "kg/m³",
                            scale=KG_M3, **_pos()),
-        }, subtables={"hardening": Table(
-            "Optional: absent = purely elastic (plasticity off). Only the keys of the chosen `law` apply. "
-            "johnson_cook: sigma_y = (A + B eqps^n)(1 + C ln(max(rate, reference_strain_rate) / "
-            "reference_strain_rate))(1 - T*^m), T* = (T - room_temperature) / (melting_temperature - "
-            "room_temperature) clamped to [0, 1], rate the plastic strain rate, T the temperature of each "
-            "quadrature point (a state variable, in fields.xdmf and checkpoints). Explicit analyses: the rate "
-            "is the increment over the step's time and T rises by adiabatic heating dT = taylor_quinney "
-            "sigma_y d eqps / (density specific_heat); static analyses (no physical time): no rate term and no "
-            "heating, T stays initial_temperature. Needs materials.<name>.density.",
-            discriminator="law", keys={
-                "law": Key("str", REQUIRED, "Hardening law.", choices=LAWS),
-                "yield_stress": Key("float", REQUIRED, "Initial yield stress.", "MPa",
-                                    when={"law": ("linear", "voce")}, **_nonneg()),
-                "modulus": Key("float", 0.0, "Linear hardening modulus (voce: added linear term).", "MPa",
-                               when={"law": ("linear", "voce")}, **_nonneg()),
-                "K": Key("float", REQUIRED, "Swift: sigma_y = K (eps0 + eqps)^n.", "MPa", when={"law": ("swift",)},
-                         **_pos()),
-                "eps0": Key("float", REQUIRED, "Swift pre-strain.", "", when={"law": ("swift",)}, **_pos()),
-                "n": Key("float", REQUIRED, "Hardening exponent: swift K (eps0 + eqps)^n, johnson_cook "
-                         "B eqps^n.", "", when={"law": ("swift", "johnson_cook")}, lo=0.0, lo_open=False, hi=1.0,
-                         hi_open=False),
-                "Q": Key("float", REQUIRED, "Voce: sigma_y = yield_stress + Q (1 - exp(-b eqps)) + modulus eqps.",
-                         "MPa", when={"law": ("voce",)}, **_nonneg()),
-                "b": Key("float", REQUIRED, "Voce saturation rate.", "", when={"law": ("voce",)}, **_pos()),
-                "strain": Key("floats", REQUIRED, "Table: equivalent plastic strains, >= 2, strictly "
-                              "increasing, first 0.", "", when={"law": ("table",)}),
-                "stress": Key("floats", REQUIRED, "Table: yield stress at each strain (piecewise linear), "
-                              "each >= 0.", "MPa", when={"law": ("table",)}),
-                "A": Key("float", REQUIRED, "Johnson-Cook yield stress (at the reference rate and room "
-                         "temperature).", "MPa", when={"law": JC}, **_nonneg()),
-                "B": Key("float", REQUIRED, "Johnson-Cook strain-hardening modulus.", "MPa", when={"law": JC},
-                         **_nonneg()),
-                "C": Key("float", REQUIRED, "Johnson-Cook strain-rate sensitivity.", "", when={"law": JC},
-                         **_nonneg()),
-                "reference_strain_rate": Key("float", 1.0, "Johnson-Cook reference plastic strain rate (no "
-                                             "strengthening below it).", "1/s", when={"law": JC}, **_pos()),
-                "m": Key("float", REQUIRED, "Johnson-Cook thermal-softening exponent.", "", when={"law": JC},
-                         **_pos()),
-                "melting_temperature": Key("float", REQUIRED, "Johnson-Cook melting temperature (no strength "
-                                           "at or above it).", "K", when={"law": JC}, **_pos()),
-                "room_temperature": Key("float", REQUIRED, "Johnson-Cook reference (room) temperature: no "
-                                        "thermal softening at or below it.", "K", when={"law": JC}, **_pos()),
-                "initial_temperature": Key("float", OPTIONAL, "Temperature at the start; absent = "
-                                           "room_temperature.", "K", when={"law": JC}, **_pos()),
-                "specific_heat": Key("float", REQUIRED, "Specific heat c_p of the adiabatic heating dT = "
-                                     "taylor_quinney sigma_y d eqps / (density c_p).", "J/(kg K)",
-                                     when={"law": JC}, **_pos()),
-                "taylor_quinney": Key("float", 0.9, "Taylor-Quinney coefficient beta: the fraction of plastic "
-                                      "work that heats (0: no heating).", "", when={"law": JC}, lo=0.0,
-                                      lo_open=False, hi=1.0, hi_open=False),
-            })}),
+        }, subtables={"hardening": _hardening_table()}),
     "boundary": Table(
         "Boundary conditions and loads, one table per name, each on a Gmsh facet group. Static: t is the "
         "pseudo-time; explicit: t is the time in µs. Values: " + VALUE_DOC + ".",
@@ -405,51 +332,27 @@ SCHEMA: dict[str, Table] = {
         "column named <name>_<unit>, and its final value goes into summary.json. In axisymmetry, forces "
         "(reaction, tool_force) and energies are those of the whole 360° body.",
         collection=True, discriminator="quantity", keys={
-            "quantity": Key("str", REQUIRED, "reaction: sum of the reactions on a constrained group (a node "
-                            "that another group also constrains in the same component is left out: its reaction "
-                            "belongs to both, e.g. a corner on a symmetry line); "
-                            "tool_force: force of a tool on the body; tool_displacement: the tool's translation; "
-                            "displacement / position: of the node "
-                            "nearest `point`; extent: largest or smallest current coordinate of a group (or "
-                            "the body); field: largest or smallest value of a field over a region (or the body); "
-                            "energy: one of the energies; thickness (2-D only): ln(t/t0) between two facing groups along "
-                            "the first (a profile, written to <name>.csv at every step end); expression: a "
-                            "value computed from other outputs (its column is the output's name as written: put "
-                            "the unit in the name, e.g. pressure_MPa).",
-                            choices=("reaction", "tool_force", "tool_displacement", "displacement", "position", "extent", "field",
-                                     "energy", "thickness", "expression")),
+            "quantity": Key("str", REQUIRED, quantity_doc(), choices=tuple(KINDS)),
             "group": Key("str", OPTIONAL, "Facet group (extent: absent = the whole body).",
-                         when={"quantity": ("reaction", "extent", "thickness")}),
-            "opposite": Key("str", REQUIRED, "The facing group (thickness).", when={"quantity": ("thickness",)}),
-            "tool": Key("str", REQUIRED, "Tool name.", when={"quantity": ("tool_force", "tool_displacement")}),
+                         when={"quantity": taking("group")}),
+            "tool": Key("str", REQUIRED, "Tool name.", when={"quantity": taking("tool")}),
             "component": Key("str", REQUIRED, "x or y (r or z) in 2-D; x, y or z in 3-D; extent also takes "
                              "radial: the distance from the z axis, sqrt(x^2 + y^2) (3-D; r in axisymmetry).",
                              choices=("x", "y", "r", "z", "radial"),
-                             when={"quantity": ("reaction", "tool_force", "tool_displacement", "displacement",
-                                                "position", "extent")}),
+                             when={"quantity": taking("component")}),
             "point": Key("vector", REQUIRED, "Reference coordinates; the nearest node is used.", "mm",
-                         when={"quantity": ("displacement", "position")}),
+                         when={"quantity": taking("point")}),
             "which": Key("str", "max", "Largest or smallest.", choices=("max", "min"),
-                         when={"quantity": ("extent", "field")}),
-            "field": Key("str", REQUIRED, "eqps: equivalent plastic strain; von_mises: Kirchhoff von Mises "
-                         "stress [MPa]; temperature [K] (Johnson-Cook materials; points of other materials "
-                         "hold 0).", choices=("eqps", "von_mises", "temperature"),
-                         when={"quantity": ("field",)}),
-            "regions": Key("strs", OPTIONAL, "Cell regions (absent = the whole body).", when={"quantity": ("field",)}),
-            "energy": Key("str", REQUIRED, "kinetic, elastic, plastic (dissipation), external_work, "
-                          "balance_error (relative) or all (the five).",
-                          choices=("kinetic", "elastic", "plastic", "external_work", "balance_error", "all"),
-                          when={"quantity": ("energy",)}),
+                         when={"quantity": taking("which")}),
+            "regions": Key("strs", OPTIONAL, "Cell regions (absent = the whole body).",
+                           when={"quantity": taking("regions")}),
             "unit": Key("str", "kN", "Force unit of the column.", choices=_FORCE_UNITS,
-                        when={"quantity": ("reaction", "tool_force")}),
-            "expression": Key("str", REQUIRED, "An expression (see [boundary] values) of t and of the names "
-                              "of other one-column outputs declared before it, each in its column's unit.",
-                              when={"quantity": ("expression",)}),
+                        when={"quantity": taking("unit")}),
             "scale": Key("float", 1.0, "Factor applied to the measured value: e.g. 2 for the elongation of a "
                          "half model, 4 for the force or the energies of a quarter model (not to the energy "
                          "balance error, a ratio).",
-                         when={"quantity": ("reaction", "tool_force", "tool_displacement", "displacement",
-                                            "energy")}),
+                         when={"quantity": taking("scale")}),
+            **kind_keys(),     # each quantity kind's own keys (fenics_plast/quantities/kinds/)
             "at_max_of": Key("str", OPTIONAL, "Name of another one-column output: summary.json also gets this "
                              "output's value where that one is largest (<column>_at_max_<its column>)."),
             "summary": Key("strs", ["final"], "What goes into summary.json: final, max, min (max adds "

@@ -13,8 +13,8 @@ from typing import Any
 
 from fenics_plast.errors import SceneError
 from fenics_plast.output import file_name_problem
-from fenics_plast.expressions import (ExpressionError, check_output_expression, check_times, parse_expression,
-                                      parse_value)
+from fenics_plast.expressions import ExpressionError, check_times, parse_value
+from fenics_plast.quantities.registry import column_names, kind
 from fenics_plast.schema import (OPTIONAL, REQUIRED, SCHEMA, SECTIONS, US, Key, Table, VALUE_DOC, number_text,
                                   component_names, is_cell_count, vector_size)
 
@@ -452,38 +452,27 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
     for n, c in t["contact"].items():
         if c.tool not in tools:
             v.fail(f"contact.{n}.tool = {c.tool!r} is not a tool: tools are {', '.join(tools) or 'none'}")
-    column_count = {n: (0 if o.quantity == "thickness" else 5 if o.quantity == "energy" and o.energy == "all"
-                        else 1) for n, o in t["outputs"].items()}
+    column_count = {n: len(column_names(n, o)) for n, o in t["outputs"].items()}
     # expressions may name the one-column outputs declared before them; at_max_of any one-column one
-    single_columns = [n for n, o in t["outputs"].items() if column_count[n] == 1 and o.quantity != "expression"]
+    single_columns = [n for n, o in t["outputs"].items()
+                      if column_count[n] == 1 and not getattr(kind(o.quantity), "DERIVED", False)]
+    ctx = dict(tools=tools, explicit=explicit, symbols=single_columns, end=analysis_end(t))
     for n, o in t["outputs"].items():
         d = f"outputs.{n}"
-        if o.quantity in ("tool_force", "tool_displacement") and o.tool not in tools:
-            v.fail(f"{d}.tool = {o.tool!r} is not a tool: tools are {', '.join(tools) or 'none'}")
-        if o.quantity == "thickness" and o.group is None:
-            v.fail(f"{d}.group is missing: required for a thickness profile")
-        if o.quantity == "reaction" and o.group is None:
-            v.fail(f"{d}.group is missing: required for a reaction")
+        _kind_check(o, "check", d, ctx, v)
         for s in o.summary:
             if s not in ("final", "max", "min"):
                 v.fail(f"{d}.summary = {list(o.summary)}: entries must be final, max or min")
-        if o.quantity == "energy" and not explicit:
-            v.fail(f"{d}: energies are recorded in explicit analyses only")
-        if o.quantity == "expression":
-            try:
-                e = parse_expression(o.expression, f"{d}.expression", symbols=("t",) + tuple(single_columns))
-                check_output_expression(e, analysis_end(t))
-            except ExpressionError as e:
-                v.fail(str(e))
         if o.at_max_of is not None and (column_count.get(o.at_max_of) != 1 or o.at_max_of == n
                                         or column_count[n] != 1):
             ones = [m for m, c in column_count.items() if c == 1 and m != n]
             v.fail(f"{d}.at_max_of = {o.at_max_of!r}: must name another one-column output (and this output "
                    f"must have one column); one-column outputs: {', '.join(ones) or 'none'}")
-        if o.quantity == "expression":
+        if getattr(kind(o.quantity), "DERIVED", False):
             single_columns.append(n)
     for n, p in t["plots"].items():
-        if p.type == "profile" and (p.output not in t["outputs"] or t["outputs"][p.output].quantity != "thickness"):
+        if p.type == "profile" and (p.output not in t["outputs"]
+                                    or not getattr(kind(t["outputs"][p.output].quantity), "PROFILE", False)):
             v.fail(f"plots.{n}.output = {p.output!r} is not a thickness output")
     # a temperature is the state of Johnson-Cook materials only
     thermal = any(m.hardening is not None and m.hardening.law == "johnson_cook" for m in mats.values())
@@ -540,11 +529,10 @@ def _geometry_checks(t: dict[str, Any], v: _Validator, geometry: str):
     names = component_names(geometry)
     for n, o in t["outputs"].items():
         d = f"outputs.{n}"
-        if o.quantity in ("displacement", "position"):
-            vector(f"{d}.point", o.point)
+        _kind_check(o, "check_mesh", d, dict(geometry=geometry, three_d=three_d, where=where, vector=vector), v)
         comp = o.get("component")
         if comp == "radial":
-            if o.quantity != "extent":
+            if not getattr(kind(o.quantity), "RADIAL", False):
                 v.fail(f"{d}.component = 'radial' is for extent outputs only")
             if geometry == "plane_strain":
                 v.fail(f"{d}.component = 'radial' (distance from the z axis) needs mesh.geometry = '3d' or "
@@ -552,13 +540,18 @@ def _geometry_checks(t: dict[str, Any], v: _Validator, geometry: str):
         elif comp is not None and comp not in names:
             v.fail(f"{d}.component = {comp!r} is not a component {where}: must be one of "
                    f"{', '.join(names)}" + (" (or radial, the distance from the z axis)" if three_d else ""))
-        if o.quantity == "thickness" and three_d:
-            v.fail(f"{d}.quantity = 'thickness' is a 2-D profile: not available {where} (use position or "
-                   f"extent outputs)")
     for n, p in t["plots"].items():
         if p.type == "shape" and three_d:
             v.fail(f"plots.{n}.type = 'shape' draws 2-D meshes only: not available {where} (open fields.xdmf "
                    f"in ParaView)")
+
+
+def _kind_check(o, rule: str, d: str, ctx: dict, v: _Validator):
+    """The output ``o``'s quantity kind's validation ``rule`` (check, check_mesh, check_boundary; see
+    :mod:`fenics_plast.quantities.registry`), if it has one."""
+    check = getattr(kind(o.quantity), rule, None)
+    if check is not None:
+        check(d, o, ctx, v.fail)
 
 
 def analysis_end(t: dict[str, Any]) -> float:
@@ -605,15 +598,9 @@ def _before_run_checks(t: dict[str, Any], v: _Validator):
                        f"component of a group (merge boundary.{other} and boundary.{n})")
             holder[(b.group, c)] = n
     symmetric = {b.group for b in t["boundary"].values() if b.type == "symmetry"}
+    ctx = dict(explicit=explicit, components=component_names(geometry), holder=holder, symmetric=symmetric)
     for n, o in t["outputs"].items():
-        if o.quantity != "reaction" or o.group is None:
-            continue
-        if explicit:
-            v.fail(f"outputs.{n}.quantity = 'reaction' is for static analyses (explicit: tool_force, energy)")
-        c = component_names(geometry).get(o.component)
-        if c is not None and (o.group, c) not in holder and o.group not in symmetric:
-            v.fail(f"outputs.{n}: group {o.group!r} has no boundary condition on component {o.component}: there "
-                   f"is no reaction to record")
+        _kind_check(o, "check_boundary", f"outputs.{n}", ctx, v)
     times = check_times(analysis_end(t))
     for n, b in t["boundary"].items():
         val = b.get("value")

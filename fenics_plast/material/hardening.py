@@ -1,19 +1,11 @@
-"""Isotropic hardening laws: flow stress sigma_y(eps_p) [MPa] and slope dsigma_y/deps_p [MPa].
+"""Isotropic hardening laws, compiled: flow stress sigma_y(eps_p) [MPa] and slope dsigma_y/deps_p [MPa].
 
-A law is packed into an integer code and a float parameter vector so that the numba
-kernels can evaluate it without Python objects:
-
-=======  ======================================================  =========================
-code     flow stress                                              params
-=======  ======================================================  =========================
-LINEAR   sigma_0 + H eps_p                                        [sigma_0, H]
-SWIFT    K (eps_0 + eps_p)^n                                      [K, eps_0, n]
-VOCE     sigma_0 + Q (1 - exp(-b eps_p)) + H eps_p                [sigma_0, Q, b, H]
-TABLE    piecewise linear through (eps_i, sigma_i), last slope    [m, eps_1..eps_m, sig_1..sig_m]
-         continued beyond the table
-JC       Johnson-Cook (A + B eps_p^n)(1 + C ln r*)(1 - T*^m)      [A, B, n, C, rate_0, m, T_melt,
-         (rate and temperature: see below)                        T_room, chi, T_0]
-=======  ======================================================  =========================
+Each law is declared in its own module of :mod:`fenics_plast.hardening_laws` (name, integer code, scene
+keys, packing into a float parameter vector, flow function; the module's docstring gives the formula and
+the vector's layout). The numba kernels evaluate a law from its code and vector, without Python objects:
+:func:`flow_stress` dispatches on the code over every registered law (a chain of compiled links, built
+here from the registry and cached like any kernel). ``LINEAR`` ... ``JOHNSON_COOK``: the codes the
+kernels single out.
 
 Johnson-Cook (``JOHNSON_COOK``): the flow stress depends on the equivalent plastic strain rate and
 the temperature besides eps_p,
@@ -35,41 +27,13 @@ import math
 import numba
 import numpy as np
 
-from fenics_plast.schema import default
+from fenics_plast.hardening_laws import laws
+from fenics_plast.hardening_laws.johnson_cook import (JC_A, JC_B, JC_C, JC_CHI, JC_M, JC_N, JC_RATE0, JC_T0,
+                                                      JC_TMELT, JC_TROOM)
 
-LINEAR, SWIFT, VOCE, TABLE, JOHNSON_COOK = 0, 1, 2, 3, 4
-_CODES = {"linear": LINEAR, "swift": SWIFT, "voce": VOCE, "table": TABLE, "johnson_cook": JOHNSON_COOK}
-# Johnson-Cook parameter positions
-JC_A, JC_B, JC_N, JC_C, JC_RATE0, JC_M, JC_TMELT, JC_TROOM, JC_CHI, JC_T0 = range(10)
-#: rho [tonne/mm^3] x c_p [J/(kg K)] x this = rho c_p [MPa/K] (1 tonne = 1e3 kg, 1 J = 1e3 N mm)
-RHO_CP_TO_MPA_PER_K = 1e6
-
-
-@numba.njit(cache=True, fastmath=False)
-def flow_stress(law: int, p: np.ndarray, eps_p: float):
-    """Return (sigma_y, dsigma_y/deps_p) in MPa at equivalent plastic strain eps_p."""
-    if law == LINEAR:
-        return p[0] + p[1] * eps_p, p[1]
-    if law == SWIFT:
-        base = p[1] + eps_p
-        s = p[0] * base ** p[2]
-        return s, p[2] * s / base
-    if law == VOCE:
-        e = math.exp(-p[2] * eps_p)
-        return p[0] + p[1] * (1.0 - e) + p[3] * eps_p, p[1] * p[2] * e + p[3]
-    if law == JOHNSON_COOK:
-        # reference rate, initial temperature: the quasi-static isothermal curve
-        s, h, _ = johnson_cook(p, eps_p, 0.0, 0.0, p[JC_T0])
-        return s, h
-    # TABLE
-    # (indices into p, not slices: a slice is an array view, reference counted at every call)
-    m = int(p[0])
-    i = 0
-    while i < m - 2 and eps_p > p[2 + i]:
-        i += 1
-    e0, e1, s0, s1 = p[1 + i], p[2 + i], p[1 + m + i], p[2 + m + i]
-    slope = (s1 - s0) / (e1 - e0)
-    return s0 + slope * (eps_p - e0), slope
+_LAWS = laws()
+LINEAR, SWIFT, VOCE, TABLE, JOHNSON_COOK = (_LAWS[name].code
+                                            for name in ("linear", "swift", "voce", "table", "johnson_cook"))
 
 
 @numba.njit(cache=True, fastmath=False)
@@ -122,6 +86,53 @@ def johnson_cook(p, eps_p, dg, dt, T):
     return g * th, g_dg * th, g * dth
 
 
+@numba.njit(cache=True, fastmath=False)
+def johnson_cook_curve(p, eps_p):
+    """Johnson-Cook flow stress and slope [MPa] at the reference rate and the initial temperature T_0
+    (the quasi-static isothermal curve): the law's ``flow`` in :func:`flow_stress`."""
+    s, h, _ = johnson_cook(p, eps_p, 0.0, 0.0, p[JC_T0])
+    return s, h
+
+
+#: compiled flow of the laws that declare none (their flow stress needs more than eps_p)
+_OWN_FLOWS = {"johnson_cook": johnson_cook_curve}
+
+
+@numba.njit(cache=True, fastmath=False)
+def _no_law(law, p, eps_p):
+    return math.nan, math.nan
+
+
+def _link(code, flow, rest):
+    """A compiled dispatcher: ``flow(p, eps_p)`` for the law ``code``, else ``rest(law, p, eps_p)``
+    (numba caches a closure by the contents of its cells: one cache entry per link)."""
+    @numba.njit(cache=True, fastmath=False)
+    def dispatch(law, p, eps_p):
+        if law == code:
+            return flow(p, eps_p)
+        return rest(law, p, eps_p)
+    return dispatch
+
+
+def _chain():
+    """The dispatcher over every registered law, first code tested first."""
+    chain = _no_law
+    for law in reversed(tuple(_LAWS.values())):
+        flow = _OWN_FLOWS[law.name] if law.flow is None else numba.njit(cache=True, fastmath=False)(law.flow)
+        chain = _link(law.code, flow, chain)
+    return chain
+
+
+_dispatch = _chain()
+
+
+@numba.njit(cache=True, fastmath=False)
+def flow_stress(law: int, p: np.ndarray, eps_p: float):
+    """Return (sigma_y, dsigma_y/deps_p) in MPa at equivalent plastic strain eps_p of the law with code
+    ``law`` (NaN for an unknown code)."""
+    return _dispatch(law, p, eps_p)
+
+
 class Hardening:
     """An isotropic hardening law (see the module docstring for the formulas).
 
@@ -129,48 +140,23 @@ class Hardening:
     >>> Hardening("swift", K=589.0, eps0=1e-4, n=0.216)
     >>> Hardening("voce", yield_stress=300.0, Q=200.0, b=10.0, modulus=50.0)
     >>> Hardening("table", strain=[0, 0.1, 1.0], stress=[200, 300, 400])
+    >>> Hardening("ludwik", yield_stress=200.0, K=500.0, n=0.3)
     >>> Hardening("johnson_cook", A=90.0, B=292.0, n=0.31, C=0.025, reference_strain_rate=1.0, m=1.09,
     ...           melting_temperature=1356.0, room_temperature=294.0, specific_heat=383.0,
     ...           density=8.96e-9)        # taylor_quinney, initial_temperature (= room) by default
 
     Johnson-Cook: rates in 1/s, temperatures in K, specific heat in J/(kg K), density in
     tonne/mm^3; ``thermal`` is True and ``initial_temperature`` [K] the temperature of a virgin point.
-    Parameters left out take the schema's defaults (``materials.<name>.hardening.*``,
-    :func:`fenics_plast.schema.default`).
+    Parameters left out take their declared defaults (the law's module in
+    :mod:`fenics_plast.hardening_laws`, the schema's ``materials.<name>.hardening.*``).
     """
 
     def __init__(self, law: str, **kw):
-        if law not in _CODES:
-            raise ValueError(f"unknown hardening law {law!r}; allowed: {sorted(_CODES)}")
+        if law not in _LAWS:
+            raise ValueError(f"unknown hardening law {law!r}; allowed: {sorted(_LAWS)}")
         self.law = law
-        self.code = _CODES[law]
-        if law == "linear":
-            params = [kw["yield_stress"], kw.get("modulus", default("materials.*.hardening.modulus"))]
-        elif law == "swift":
-            params = [kw["K"], kw["eps0"], kw["n"]]
-        elif law == "voce":
-            params = [kw["yield_stress"], kw["Q"], kw["b"], kw.get("modulus", default("materials.*.hardening.modulus"))]
-        elif law == "johnson_cook":
-            t_room, t_melt = float(kw["room_temperature"]), float(kw["melting_temperature"])
-            t0 = kw.get("initial_temperature")
-            t0 = t_room if t0 is None else float(t0)
-            beta = float(kw.get("taylor_quinney", default("materials.*.hardening.taylor_quinney")))
-            rho, cp = float(kw["density"]), float(kw["specific_heat"])
-            if not t_melt > t_room:
-                raise ValueError(f"johnson_cook: melting_temperature {t_melt} K must exceed room_temperature "
-                                 f"{t_room} K")
-            if not (rho > 0 and cp > 0 and 0.0 <= beta <= 1.0 and kw["reference_strain_rate"] > 0):
-                raise ValueError("johnson_cook: density, specific_heat and reference_strain_rate must be > 0 "
-                                 "and 0 <= taylor_quinney <= 1")
-            chi = beta / (rho * cp * RHO_CP_TO_MPA_PER_K)
-            params = [kw["A"], kw["B"], kw["n"], kw["C"], kw["reference_strain_rate"], kw["m"], t_melt, t_room,
-                      chi, t0]
-        else:
-            strain = np.asarray(kw["strain"], dtype=float)
-            stress = np.asarray(kw["stress"], dtype=float)
-            if strain.shape != stress.shape or strain.size < 2 or np.any(np.diff(strain) <= 0):
-                raise ValueError("table hardening needs >= 2 strictly increasing strains and as many stresses")
-            params = [strain.size, *strain, *stress]
+        self.code = _LAWS[law].code
+        params = _LAWS[law].vector(kw)
         self.params = np.asarray(params, dtype=float)
 
     def __call__(self, eps_p):
@@ -182,7 +168,7 @@ class Hardening:
     @property
     def thermal(self) -> bool:
         """True for a law with a temperature state (Johnson-Cook)."""
-        return self.code == JOHNSON_COOK
+        return _LAWS[self.law].thermal
 
     @property
     def initial_temperature(self) -> float:

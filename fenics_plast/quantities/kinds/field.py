@@ -1,0 +1,37 @@
+"""field: the largest or smallest value of a quadrature-point field over cell regions (or the body):
+eqps, von_mises [MPa] or temperature [K]."""
+from __future__ import annotations
+
+import numpy as np
+
+from fenics_plast.scene_key import REQUIRED, Key
+
+NAME, ORDER = "field", 70
+DOC = "field: largest or smallest value of a field over a region (or the body)"
+TAKES = ("which", "regions")
+KEYS = {
+    "field": Key("str", REQUIRED, "eqps: equivalent plastic strain; von_mises: Kirchhoff von Mises "
+                 "stress [MPa]; temperature [K] (Johnson-Cook materials; points of other materials "
+                 "hold 0).", choices=("eqps", "von_mises", "temperature")),
+}
+
+
+def columns(name, o):
+    return [{"von_mises": f"{name}_MPa", "temperature": f"{name}_K"}.get(o.field, name)]
+
+
+def value(name, o, q, time, row):
+    from mpi4py import MPI
+
+    from fenics_plast.quadrature import von_mises
+    b, comm = q.body, q.body.comm
+    qm = b.qmap
+    vals = (qm.eqps if o.field == "eqps" else qm.temperature if o.field == "temperature"
+            else von_mises(qm.tau_values))
+    if o.regions is not None:
+        cells = np.concatenate([b.cell_regions[r] for r in o.regions])
+        vals = vals.reshape(-1, qm.nq)[cells]
+    vals = np.asarray(vals).reshape(-1)
+    if o.which == "max":
+        return [comm.allreduce(float(vals.max()) if vals.size else -np.inf, op=MPI.MAX)]
+    return [comm.allreduce(float(vals.min()) if vals.size else np.inf, op=MPI.MIN)]
