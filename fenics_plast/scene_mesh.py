@@ -84,6 +84,8 @@ MIN_BYTES_PER_CELL = {2: 4000, 3: 5000}
 #: the largest magnitude of a mesh parameter (that is not a cell count) without a Max in its .geo, and of a
 #: node coordinate [mm]: 1000 km
 MAX_PARAMETER = 1e9
+#: the smallest span of the body along any axis [mm]: 1 nm (cell areas and volumes of a thinner body underflow)
+MIN_SPAN = 1e-6
 
 
 def check_mesh_parameters(problem, comm, gdim, trust_mesh_script=False):
@@ -150,7 +152,8 @@ def _collective_raise(comm, msg):
 
 def check_on_mesh(problem, mesh, cell_tags, facet_tags, groups):
     """What the scene asks of the mesh, checked before anything is written (SceneError naming the key,
-    collective): node coordinates finite and, in axisymmetry, every node at r = x >= 0; every value of
+    collective): node coordinates finite, the body at least MIN_SPAN across along each axis and, in
+    axisymmetry, every node at r = x >= 0; every value of
     x, y, z (boundary values over their group's nodes, from t = 0 to the end of the analysis;
     initial velocities over their regions' nodes) finite; each symmetry group straight, and its normal
     component held by no other condition of the group; a reaction output on a component its group
@@ -165,6 +168,13 @@ def check_on_mesh(problem, mesh, cell_tags, facet_tags, groups):
     if not np.isfinite(X).all() or np.abs(X).max(initial=0.0) > MAX_PARAMETER:
         msg = f"{where}: {key}: the mesh has node coordinates that are not finite or beyond {MAX_PARAMETER:g} mm"
     _collective_raise(comm, msg)
+    spans = [comm.allreduce(float(X[:, i].max()) if len(X) else -np.inf, op=MPI.MAX)
+             - comm.allreduce(float(X[:, i].min()) if len(X) else np.inf, op=MPI.MIN) for i in range(gdim)]
+    axis = int(np.argmin(spans))
+    if spans[axis] < MIN_SPAN:
+        name = ("r", "z")[axis] if geometry == "axisymmetric" else "xyz"[axis]
+        raise SceneError(f"{where}: {key}: the body spans {spans[axis]:.3g} mm along {name}: lengths are in mm, "
+                         f"and a body thinner than {MIN_SPAN:g} mm (1 nm) is refused (its cells' sizes underflow)")
     if geometry == "axisymmetric":
         rmin = comm.allreduce(float(X[:, 0].min()) if len(X) else np.inf, op=MPI.MIN)
         size = comm.allreduce(float(np.abs(X).max()) if len(X) else 0.0, op=MPI.MAX)

@@ -236,6 +236,14 @@ def test_wall_through_the_body(tmp_path):
             "boundary.floor.position=5.0")
 
 
+@pytest.mark.parametrize("scene, sets, axis", [(WALL, "mesh.parameters.length=1e-300", "z"),
+                                               (BAR, "mesh.parameters.radius=1e-9", "r")])
+def test_a_body_thinner_than_a_nanometre(tmp_path, scene, sets, axis):
+    """mesh.parameters.length = 1e-300 (found by the slow fuzz test) passed the "lengths > 0" check and
+    crashed the stable step with a ZeroDivisionError (cell areas underflow): exit 1, a traceback."""
+    refused(tmp_path, scene, f"mesh.parameters: the body spans", sets, words=[f"mm along {axis}", "1e-06 mm"])
+
+
 def test_cold_compiler_cache_prints_nothing_before_the_error(tmp_path):
     """On a fresh machine FFCx compiles every form; through setuptools (Debian 12) each gcc call was
     logged as "INFO:root:..." on stderr ahead of the error (found by the fresh-root check). With an
