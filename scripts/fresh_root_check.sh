@@ -367,6 +367,11 @@ bootstrap() {
     root_sources "$keyring" > "$root/etc/apt/sources.list.d/debian.sources" || return 1
     cat "$root/etc/apt/sources.list.d/debian.sources"
     cp -L /etc/resolv.conf "$root/etc/resolv.conf" || return 1
+    # /etc/hosts as a container (and Debian's installer) has it: localhost and this machine's name.
+    # debootstrap writes none, and without it Open MPI's start-up looks the host name up in DNS: every
+    # MPI process (each CLI run of the tests) then waited 5 s for a resolver timeout on bookworm.
+    printf '127.0.0.1\tlocalhost\n::1\tlocalhost ip6-localhost ip6-loopback\n127.0.1.1\t%s\n' \
+        "$(hostname)" > "$root/etc/hosts" || return 1
 }
 
 mount_all() {
