@@ -94,16 +94,11 @@ def test_a_law_module_is_in_the_kernel_digest(tmp_path):
 
 
 def test_a_second_process_reuses_the_compiled_dispatcher(tmp_path):
-    import os
-    import subprocess
-    import sys
-    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
-    env["XDG_CACHE_HOME"] = str(tmp_path)
+    from test_numba_cache import run_with_cache_home
     code = ("import numpy as np\n"
             "from fenics_plast.material.hardening import flow_stress\n"
             "s = flow_stress(5, np.array([200.0, 500.0, 0.3]), 0.2)[0]\n"
             "print(s, sum(flow_stress.stats.cache_misses.values()), sum(flow_stress.stats.cache_hits.values()))\n")
-    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300,
-                           check=True).stdout.split() for _ in range(2)]
+    runs = [run_with_cache_home(code, tmp_path).split() for _ in range(2)]
     assert float(runs[0][0]) == pytest.approx(S0 + K * 0.2 ** N, rel=1e-14)
     assert runs[0][1:] == ["1", "0"] and runs[1][1:] == ["0", "1"]                  # compiled once, then loaded

@@ -44,14 +44,18 @@ def test_a_kernel_file_change_starts_a_new_cache_and_other_changes_do_not(tmp_pa
     assert cache_dir_of(copy, home) != first
 
 
-def test_kernels_are_cached_in_that_folder(tmp_path):
+def run_with_cache_home(code: str, cache_home: Path) -> str:
+    """stdout of ``python -c code`` in a new process whose caches live under ``cache_home``."""
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
-    env["XDG_CACHE_HOME"] = str(tmp_path)
+    env["XDG_CACHE_HOME"] = str(cache_home)
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300,
+                          check=True).stdout
+
+
+def test_kernels_are_cached_in_that_folder(tmp_path):
     code = ("import numpy as np, fenics_plast\n"
             "from fenics_plast.material.hardening import flow_stress\n"
             "print(flow_stress(0, np.array([400.0, 100.0]), 0.5)[0])\n")
-    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300,
-                       check=True)
-    assert float(p.stdout) == 450.0                                    # 400 + 100 * 0.5 MPa
+    assert float(run_with_cache_home(code, tmp_path)) == 450.0                                    # 400 + 100 * 0.5 MPa
     folder = tmp_path / "fenics-plast" / "numba" / fenics_plast.kernel_source_digest()
     assert any(folder.rglob("hardening.flow_stress-*.nbi")), sorted(folder.rglob("*"))
