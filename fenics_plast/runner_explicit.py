@@ -24,8 +24,8 @@ from fenics_plast import dolfinx_compat as dc
 from fenics_plast.build import (body_material, boundaries, cell_regions, contact_pairs, initial_velocity_field,
                                 tool_force_of, tools_of)
 from fenics_plast.kinematics import Kinematics
-from fenics_plast.errors import RunError, SceneError
-from fenics_plast.schema import US
+from fenics_plast.errors import RunError, SceneError, Terms
+from fenics_plast.schema import US, key
 from fenics_plast.quantities import Body, Quantities
 from fenics_plast.results import checkpointer, draw_plots, open_fields, penetration_report, write_final_shape
 from fenics_plast.scene_mesh import read_mesh
@@ -34,6 +34,32 @@ from fenics_plast.solvers.explicit import ExplicitDynamics
 
 #: added mass (fraction of the body's) above which the run log warns
 MASS_WARNING = 0.05
+
+
+class SceneTerms(Terms):
+    """The solver's messages in the scene's words: each argument of the explicit solver named in
+    them (:class:`~fenics_plast.errors.Arg`) as the scene key or phrase that sets it, its values in
+    that key's units (the schema's ``scale``: µs for times), ``--set key=value`` to set one."""
+
+    #: solver argument -> what sets it in a scene file
+    KEYS = {"dt_safety": "analysis.dt_safety", "steps": "analysis.time_steps", "dt_floor": "analysis.dt_floor",
+            "mass_scaling_dt": "analysis.mass_scaling_dt", "stable_step": "analysis.stable_step",
+            "erosion_ratio": "analysis.erosion_ratio", "element": "mesh.element", "mesh": "mesh.refine",
+            "material.model": "materials.<name>.model", "add_wall": "boundary type 'wall'"}
+
+    def name(self, arg):
+        return self.KEYS[arg.name]
+
+    def scale_unit(self, arg):
+        k = key(self.KEYS[arg.name])
+        return k.scale, k.unit.replace("µ", "u")
+
+    def setting(self, arg, value):
+        return f"--set {self.name(arg)}={value}"
+
+
+#: how the driver words the solver's messages (``RunError.worded``)
+SCENE_TERMS = SceneTerms()
 
 
 def velocity_constraints(conditions):
@@ -223,7 +249,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
             e.results.update(added_mass_kg=m["added_mass"] * 1e3, added_mass_fraction=m["fraction"],
                              mass_scaled_cells=m["cells"], max_mass_scale_factor=m["max_factor"])
         e.results.update(wall_erosion_columns(solver))
-        raise
+        raise e.reword(SCENE_TERMS)
     finally:
         if xf is not None:
             xf.close()
@@ -272,7 +298,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
     draw_plots(problem, output)
     if stop is not None:
         res.update(stop.results)
-        raise RunError(f"{problem.name}: {stop}", results=res)
+        raise RunError(f"{problem.name}: {stop.worded(SCENE_TERMS)}", results=res)
     return res
 
 
@@ -332,5 +358,5 @@ def eroded_field(solver, out=None):
     return out
 
 
-__all__ = ["run_explicit", "checked_steps", "velocity_constraints", "mass_scaling_columns", "wall_erosion_columns",
+__all__ = ["run_explicit", "SceneTerms", "SCENE_TERMS", "checked_steps", "velocity_constraints", "mass_scaling_columns", "wall_erosion_columns",
            "add_walls", "nonfinite_guard", "fields_guard"]
