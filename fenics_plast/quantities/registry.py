@@ -38,7 +38,8 @@ from types import ModuleType
 
 from . import kinds as kinds_package
 
-__all__ = ["KINDS", "AUTOMATIC", "kind", "taking", "quantity_doc", "kind_keys", "column_names", "summary_keys", "study_keys"]
+__all__ = ["KINDS", "AUTOMATIC", "kind", "taking", "quantity_doc", "kind_keys", "column_names", "summary_keys",
+           "study_keys"]
 
 
 def _discover() -> dict[str, ModuleType]:

@@ -171,7 +171,8 @@ def collapse_error(solver, dt_stable, dt_stable0, dt_floor, mass_scaling_dt) -> 
 FOLD_IN_ONE_STEP = 0.05
 
 
-def fold_error(solver, fold, dt_stable0, dt_floor, mass_scaling_dt, step_key=Message(Arg("dt_safety"))) -> CellFold:
+def fold_error(solver, fold, dt_stable0, dt_floor, mass_scaling_dt,
+               step_key=Message(Arg("dt_safety"))) -> CellFold:
     """The :class:`CellFold` of a step that would fold a cell (collective), the solver back at the
     last finite state. ``fold``: each rank's note of the failed step (``ExplicitDynamics._fold_back``:
     ``cell``, its most folded owned cell there, ``j_next`` that cell's smallest point Jacobian,
@@ -180,8 +181,8 @@ def fold_error(solver, fold, dt_stable0, dt_floor, mass_scaling_dt, step_key=Mes
     floor's cell is (:func:`critical_cell`), with the remedies: when its point Jacobian would fall by
     more than :data:`FOLD_IN_ONE_STEP` in that one step, the step is long for the motion (the Taylor
     bar at 5000 m/s: nodes move half a cell per step) and ``step_key`` (the argument of the step
-    size, with its value: a :class:`~fenics_plast.errors.Message`) is named; otherwise the cell flattened over many steps, which a smaller
-    step does not prevent."""
+    size, with its value: a :class:`~fenics_plast.errors.Message`) is named; otherwise the cell
+    flattened over many steps, which a smaller step does not prevent."""
     comm = solver.comm
     i = fold["cell"]
     orig = int(solver.mesh.topology.original_cell_index[i]) if i >= 0 else np.iinfo(np.int64).max
