@@ -24,8 +24,8 @@ from fenics_plast import dolfinx_compat as dc
 from fenics_plast.build import (body_material, boundaries, cell_regions, contact_pairs, initial_velocity_field,
                                 tool_force_of, tools_of)
 from fenics_plast.kinematics import Kinematics
-from fenics_plast.errors import RunError, SceneError
-from fenics_plast.schema import US
+from fenics_plast.errors import RunError, SceneError, Terms
+from fenics_plast.schema import US, key
 from fenics_plast.quantities import Body, Quantities
 from fenics_plast.results import checkpointer, draw_plots, open_fields, penetration_report, write_final_shape
 from fenics_plast.scene_mesh import read_mesh
@@ -34,6 +34,32 @@ from fenics_plast.solvers.explicit import ExplicitDynamics
 
 #: added mass (fraction of the body's) above which the run log warns
 MASS_WARNING = 0.05
+
+
+class SceneTerms(Terms):
+    """The solver's messages in the scene's words: each argument of the explicit solver named in
+    them (:class:`~fenics_plast.errors.Arg`) as the scene key or phrase that sets it, its values in
+    that key's units (the schema's ``scale``: µs for times), ``--set key=value`` to set one."""
+
+    #: solver argument -> what sets it in a scene file
+    KEYS = {"dt_safety": "analysis.dt_safety", "steps": "analysis.time_steps", "dt_floor": "analysis.dt_floor",
+            "mass_scaling_dt": "analysis.mass_scaling_dt", "stable_step": "analysis.stable_step",
+            "erosion_ratio": "analysis.erosion_ratio", "element": "mesh.element", "mesh": "mesh.refine",
+            "material.model": "materials.<name>.model", "add_wall": "boundary type 'wall'"}
+
+    def name(self, arg):
+        return self.KEYS[arg.name]
+
+    def scale_unit(self, arg):
+        k = key(self.KEYS[arg.name])
+        return k.scale, k.unit.replace("µ", "u")
+
+    def setting(self, arg, value):
+        return f"--set {self.name(arg)}={value}"
+
+
+#: how the driver words the solver's messages (``RunError.worded``)
+SCENE_TERMS = SceneTerms()
 
 
 def velocity_constraints(conditions):
@@ -125,10 +151,16 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
     # per node (regions, expressions of x, y, z) [mm/s]
     solver.set_velocity(initial_velocity_field(problem, solver.V, ct, groups))
 
+    # what the automatic quantities read (quantities/kinds/mass_scaling.py, wall_energy.py, erosion.py)
+    scaling = SimpleNamespace(stats=solver.mass_scaling_stats, target_us=ana.mass_scaling_dt / US) \
+        if ana.mass_scaling_dt > 0.0 else None
+    erosion = SimpleNamespace(stats=solver.erosion_stats, ratio=solver.erosion_ratio, cells=solver.eroded_cells) \
+        if solver.erosion_ratio > 0.0 else None
     body = Body(comm, solver.V, solver._X, solver.nodal_positions, solver.qmap,
                 cell_regions(ct, groups, solver.qmap.n_owned), tool_force=tool_force_of(problem, pairs, solver.bs),
                 energies=solver.energies, tool_translation=lambda tool, t: tools[tool].translation(t, use_ufl=False),
-                geometry=problem.mesh.geometry)
+                geometry=problem.mesh.geometry, mass_scaling=scaling, erosion=erosion,
+                wall_energy=solver.walls.energy if solver.walls.active else None)
     return SimpleNamespace(solver=solver, material=material, tools=tools, pairs=pairs, contact_pairs=specs,
                            body=body, mesh=mesh, cell_tags=ct, facet_tags=ft, groups=groups)
 
@@ -170,16 +202,14 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
     def on_row(s, t):
         # (a stop right after landing on a row time writes the fields only, not a second row)
         if not (state.get("stop") and quantities.times and t / US <= quantities.times[-1]):
-            cols = quantities.row(t / US)
+            cols = quantities.row(t / US)          # the declared outputs, then the automatic ones
             if scaling:
-                cols.update(mass_scaling_columns(s))
                 if cols["added_mass_fraction"] > MASS_WARNING and not state.get("mass_warned"):
                     state["mass_warned"] = True
                     output.log(f"warning: at t = {t / US:.4g} us selective mass scaling has added "
                                f"{100 * cols['added_mass_fraction']:.3g} % of the body's mass (to "
                                f"{cols['mass_scaled_cells']} cells): the answer may be another body's; a "
                                f"smaller analysis.mass_scaling_dt adds less")
-            cols.update(wall_erosion_columns(s))
             nonfinite_guard(cols, f"{problem.name}: history row at t = {t / US:.6g} us")
             output.history(time_us=t / US, **cols)
         # (a stop where fields were just written, e.g. a fold in the first step, writes none again)
@@ -218,17 +248,13 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
         e.results.update(quantities.study_keys())
         e.results.update(stopped_at_us=solver.t / US, steps=solver.step_count, cells=solver.cells_global,
                          dofs=solver.dofs_global, converged=False)
-        if scaling:             # the mass is finite (the velocities may not be)
-            m = solver.mass_scaling_stats()
-            e.results.update(added_mass_kg=m["added_mass"] * 1e3, added_mass_fraction=m["fraction"],
-                             mass_scaled_cells=m["cells"], max_mass_scale_factor=m["max_factor"])
-        e.results.update(wall_erosion_columns(solver))
-        raise
+        e.results.update(quantities.automatic_summary(failed=True))
+        raise e.reword(SCENE_TERMS)
     finally:
         if xf is not None:
             xf.close()
     res = quantities.summary("time_us")
-    res.update(quantities.study_keys())
+    res.update(quantities.study_keys(automatic=True))
     e = solver.energies()
     res.update(energy_balance_error=e["balance_error"], steps=stats["steps"], dt_s=stats["dt_max"],
                dt_min_s=stats["dt_min"], dt_stable_initial_s=stats["dt_stable_initial"],
@@ -237,20 +263,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
                step_loop_time_s=stats["wall_s"], time_per_step_s=stats["time_per_step_s"],
                setup_time_s=solver.timings["setup_s"], cells=solver.cells_global, dofs=solver.dofs_global,
                converged=stop is None)
-    if scaling:
-        m = solver.mass_scaling_stats()
-        res.update(mass_scaling_dt_us=ana.mass_scaling_dt / US, body_mass_kg=m["body_mass"] * 1e3,
-                   added_mass_kg=m["added_mass"] * 1e3, added_mass_fraction=m["fraction"],
-                   mass_scaled_cells=m["cells"], max_mass_scale_factor=m["max_factor"],
-                   added_mass_kinetic_energy_J=m["kinetic"] * 1e-3, mass_scaling_energy_J=m["energy"] * 1e-3)
-        res["info_results"] = list(res["info_results"]) + ["added_mass_fraction", "mass_scaled_cells"]
-    res.update(wall_erosion_columns(solver))
-    if solver.erosion_ratio > 0.0:
-        res.update(erosion_ratio=solver.erosion_ratio, eroded_mass_fraction=solver.erosion_stats()["mass_fraction"],
-                   eroded_cell_list=[dict(cell=c, reference_centre_mm=x) for c, x in solver.eroded_cells()])
-        res["info_results"] = list(res["info_results"]) + ["eroded_cells", "eroded_volume_fraction"]
-    if solver.walls.active:
-        res["info_results"] = list(res["info_results"]) + ["wall_energy_J"]
+    res.update(quantities.automatic_summary())      # mass scaling, walls, erosion: when the run has them
     if pairs:
         # the contact terms of the balance (energy_balance_error includes them) and, per pair, the
         # largest penetration of the run and its penalty; the springs' stable-step limit (collective calls)
@@ -272,7 +285,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
     draw_plots(problem, output)
     if stop is not None:
         res.update(stop.results)
-        raise RunError(f"{problem.name}: {stop}", results=res)
+        raise RunError(f"{problem.name}: {stop.worded(SCENE_TERMS)}", results=res)
     return res
 
 
@@ -299,29 +312,6 @@ def fields_guard(solver, where: str):
                        f"stopped at its last finite state: a defect, please report it with the scene)")
 
 
-def mass_scaling_columns(solver) -> dict:
-    """The history columns of selective mass scaling (collective): added mass [kg; plane strain: per
-    mm of depth] and its fraction of the body's mass, the cells scaled, the kinetic energy of the
-    added mass now and the kinetic energy it brought in (a term of the energy balance) [J]."""
-    m = solver.mass_scaling_stats()
-    return dict(added_mass_kg=m["added_mass"] * 1e3, added_mass_fraction=m["fraction"],
-                mass_scaled_cells=m["cells"], added_mass_kinetic_energy_J=m["kinetic"] * 1e-3,
-                mass_scaling_energy_J=m["energy"] * 1e-3)
-
-
-def wall_erosion_columns(solver) -> dict:
-    """The history columns of the rigid walls (the energy their stops took [J]) and of element
-    erosion (eroded cells, their fraction of the body's volume), each when the scene has them
-    (collective)."""
-    cols = {}
-    if solver.walls.active:
-        cols["wall_energy_J"] = solver.walls.energy() * 1e-3
-    if solver.erosion_ratio > 0.0:
-        e = solver.erosion_stats()
-        cols.update(eroded_cells=e["cells"], eroded_volume_fraction=e["volume_fraction"])
-    return cols
-
-
 def eroded_field(solver, out=None):
     """DG0 function "eroded": 1 on the eroded cells, 0 elsewhere (``out``: reused)."""
     if out is None:
@@ -332,5 +322,5 @@ def eroded_field(solver, out=None):
     return out
 
 
-__all__ = ["run_explicit", "checked_steps", "velocity_constraints", "mass_scaling_columns", "wall_erosion_columns",
-           "add_walls", "nonfinite_guard", "fields_guard"]
+__all__ = ["run_explicit", "SceneTerms", "SCENE_TERMS", "checked_steps", "velocity_constraints", "add_walls",
+           "nonfinite_guard", "fields_guard"]

@@ -30,6 +30,8 @@ NOT_SCENE_KEYS = {
         "the checkpoint interval the runner has resolved (0: never save), not output.every (fields)",
     ("progress.py", "Progress.__init__", "unit"):
         "the unit shown on a progress bar, not outputs.<name>.unit (a force unit)",
+    ("errors.py", "Arg.__init__", "unit"):
+        "the solver's unit of an argument's value named in a message, not outputs.<name>.unit",
 }
 
 

@@ -19,16 +19,21 @@ class Body:
       point);
     * ``reaction(dofs)`` [N] for owned V-dof indices of one component (unrolled, V numbering);
     * ``tool_force(tool)`` -> (Fx, Fy[, Fz]) [N]; ``tool_translation(tool, t)`` -> (dx, dy[, dz]) [mm];
-      ``energies()`` -> dict [N mm] (explicit only).
+      ``energies()`` -> dict [N mm] (explicit only);
+    * what the automatic quantities read (:data:`fenics_plast.quantities.registry.AUTOMATIC`), each None
+      when the run has none: ``mass_scaling`` (``stats()``: the solver's mass-scaling statistics,
+      ``target_us``), ``wall_energy()`` [N mm] (rigid walls), ``erosion`` (``stats()``: the solver's
+      erosion statistics, ``ratio``, ``cells()``: the eroded cells, (index, reference centre [mm])).
     """
 
     def __init__(self, comm, V, X, positions, qmap, cell_regions, *, geometry, reaction=None, tool_force=None,
-                 energies=None, tool_translation=None):
+                 energies=None, tool_translation=None, mass_scaling=None, wall_energy=None, erosion=None):
         self.comm, self.V, self.X, self.positions, self.qmap = comm, V, X, positions, qmap
         self.geometry = geometry
         self.cell_regions = cell_regions           # region name -> owned cell indices
         self.reaction, self.tool_force, self.energies = reaction, tool_force, energies
         self.tool_translation = tool_translation
+        self.mass_scaling, self.wall_energy, self.erosion = mass_scaling, wall_energy, erosion
         self.n_owned_nodes = V.dofmap.index_map.size_local
 
     def component(self, name: str) -> int:

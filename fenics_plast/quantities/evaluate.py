@@ -8,7 +8,7 @@ import numpy as np
 from mpi4py import MPI
 
 from .body import Body
-from .registry import KINDS, column_names, study_keys
+from .registry import AUTOMATIC, KINDS, column_names, study_keys
 
 __all__ = ["Quantities"]
 
@@ -20,7 +20,8 @@ class Quantities:
     ``reactions`` ((group, component) -> owned dof indices), ``nodes`` (per output: its node indices),
     ``expressions`` (per expression output: the parsed expression), ``columns`` (per output: its
     history.csv columns), ``profiles`` (per profile output:
-    [(time, s, values)]), :meth:`nearest_node`."""
+    [(time, s, values)]), :meth:`nearest_node`. ``automatic``: the automatic kinds the body has
+    (columns after the declared outputs'; summary entries from :meth:`automatic_summary`)."""
 
     def __init__(self, outputs: dict, body: Body, facet_tags, groups: dict, reactions=None):
         self.outputs, self.body = outputs, body
@@ -36,6 +37,7 @@ class Quantities:
             setup = getattr(KINDS[o.quantity], "setup", None)
             if setup is not None:
                 setup(name, o, self)
+        self.automatic = [m for m in AUTOMATIC.values() if m.active(body)]
 
     def nearest_node(self, p):
         """[index] of the owned node nearest the reference point ``p`` on the rank that holds it, [] on
@@ -63,6 +65,8 @@ class Quantities:
                 self.history.setdefault(col, []).append(float(v))
             if len(cols) == 1:
                 by_name[name] = out[cols[0]]
+        for m in self.automatic:             # (their summary is measured at the end: not kept)
+            out.update(zip(m.columns(m.NAME, None), m.value(m.NAME, None, self, time, by_name)))
         self.times.append(float(time))
         return out
 
@@ -105,6 +109,19 @@ class Quantities:
                     res[f"{col}_at_max_{other}"] = h[int(np.argmax(self.history[other]))]
         return res
 
-    def study_keys(self) -> dict:
-        """summary.json's key_results / info_results / references (read by `fenics-plast study`)."""
-        return study_keys(self.outputs)
+    def automatic_summary(self, failed: bool = False) -> dict:
+        """The automatic quantities' summary.json entries, measured now (``failed``: those of a run
+        gone unstable)."""
+        res = {}
+        for m in self.automatic:
+            res.update(m.failed(self) if failed else m.summary(self))
+        return res
+
+    def study_keys(self, automatic: bool = False) -> dict:
+        """summary.json's key_results / info_results / references (read by `fenics-plast study`);
+        ``automatic``: with the automatic quantities' keys in info_results."""
+        keys = study_keys(self.outputs)
+        if automatic:
+            keys["info_results"] = keys["info_results"] + [
+                k for m in sorted(self.automatic, key=lambda m: m.INFO_ORDER) for k in m.INFO]
+        return keys

@@ -20,6 +20,14 @@ A kind module declares (standard library and numpy at import time; heavy imports
 * a profile kind (``PROFILE = True``) gives ``profile(name, q)`` -> (s, values), ``summary(name, o, q,
   time_label)`` -> dict and ``summary_keys(name, o)`` -> its summary.json keys (the others' summaries
   are the history columns' final / max / min, written by ``Quantities.summary``).
+
+An automatic kind (``AUTOMATIC = True``: in :data:`AUTOMATIC`, not in :data:`KINDS`, so no ``quantity``
+a scene declares) is measured in every run whose body has it (``active(body)``: what the solver does,
+e.g. mass scaling, walls, erosion): ``columns(name, o)`` and ``value(name, o, q, time, row)`` as above
+(``o`` None; the values written as they come: counts stay integers), ``summary(q)`` -> its
+summary.json entries at the end (measured then), ``failed(q)`` -> those of a run gone unstable (what
+stays finite), ``INFO`` its summary keys listed in ``info_results`` (at ``INFO_ORDER`` among the
+automatic kinds').
 """
 from __future__ import annotations
 
@@ -30,7 +38,8 @@ from types import ModuleType
 
 from . import kinds as kinds_package
 
-__all__ = ["KINDS", "kind", "taking", "quantity_doc", "kind_keys", "column_names", "summary_keys", "study_keys"]
+__all__ = ["KINDS", "AUTOMATIC", "kind", "taking", "quantity_doc", "kind_keys", "column_names", "summary_keys",
+           "study_keys"]
 
 
 def _discover() -> dict[str, ModuleType]:
@@ -39,8 +48,13 @@ def _discover() -> dict[str, ModuleType]:
     return {m.NAME: m for m in sorted(mods, key=lambda m: (m.ORDER, m.NAME))}
 
 
-#: {quantity name: its kind module}, in the schema's order
-KINDS: dict[str, ModuleType] = _discover()
+_ALL = _discover()
+
+#: {quantity name: its kind module}, in the schema's order (the quantities a scene declares)
+KINDS: dict[str, ModuleType] = {n: m for n, m in _ALL.items() if not getattr(m, "AUTOMATIC", False)}
+
+#: {name: kind module} of the automatic quantities, in their order (history columns, summary)
+AUTOMATIC: dict[str, ModuleType] = {n: m for n, m in _ALL.items() if getattr(m, "AUTOMATIC", False)}
 
 
 def kind(quantity: str) -> ModuleType:

@@ -1,21 +1,23 @@
 """Diagnosis of a collapsing explicit time step: the cell that sets it and why, and the error that stops the run.
 
 :meth:`fenics_plast.solvers.explicit.ExplicitDynamics.run` calls :func:`collapse_error` when the
-stable step falls below ``analysis.dt_floor`` x its initial value; the message names the cell (its
+stable step falls below ``dt_floor`` x its initial value; the message names the cell (its
 index in the mesh file, where it is now and in the reference mesh), its size, aspect ratio, volume
 ratio J and corner angles (hexahedra: size V / A_max, aspect ratio and J, no angles), the collapse
-ratio, and the remedies with the scene keys to set. It calls :func:`fold_error` when a step would
+ratio, and the remedies with the solver's arguments to set (a :class:`~fenics_plast.errors.Message`:
+the driver words them as the scene's keys). It calls :func:`fold_error` when a step would
 fold a cell (a quadrature point's Jacobian <= 0, found by the force pass before it writes anything):
 the run stops at the last finite state, and the message names the cell, its shape there, the point
 Jacobian the step would have reached, and the remedies (a fold is no collapse of the step: the floor
-does not see it). Lengths in mm, times in s (the message gives us where users write them).
+does not see it). Lengths in mm, times in s (the times of the run in µs, where users write them; the
+arguments' values in the solver's units, which the driver's wording may show in others).
 """
 from __future__ import annotations
 
 import numpy as np
 from mpi4py import MPI
 
-from fenics_plast.errors import RunError
+from fenics_plast.errors import Arg, Message, RunError
 from fenics_plast.solvers import hex_step
 from fenics_plast.solvers.quad_step import quad_min_size
 
@@ -111,40 +113,49 @@ def collapse_error(solver, dt_stable, dt_stable0, dt_floor, mass_scaling_dt) -> 
     pos = f"({', '.join(ax)}) = ({', '.join(f'{x:.4g}' for x in c['position'])}) mm"
     ref = f"({', '.join(f'{x:.4g}' for x in c['reference'])}) mm"
     hexa = c["max_angle"] is None
-    suggest = float(f"{0.2 * dt_stable0 * 1e6:.2g}")
+    element_step = Arg("stable_step", "element", form="set")
     remedies = []
     if solver.stable_step == "size" and c["dt_element"] > 10.0 * c["dt_size"] and hexa:
-        remedies.append(f"the cell's own elastic element step 2/omega_max is {c['dt_element']:.3g} s, "
-                        f"{c['dt_element'] / c['dt_size']:.3g} x its size estimate: --set "
-                        f"analysis.stable_step=element takes the element's step")
+        remedies.append(Message(f"the cell's own elastic element step 2/omega_max is {c['dt_element']:.3g} s, "
+                                f"{c['dt_element'] / c['dt_size']:.3g} x its size estimate: ", element_step,
+                                " takes the element's step"))
     elif solver.stable_step == "size" and c["dt_element"] > 10.0 * c["dt_size"]:
         # the size estimate collapses on a corner near 180 degrees; the element does not
-        remedies.append(f"the cell's own elastic element step 2/omega_max is {c['dt_element']:.3g} s, "
-                        f"{c['dt_element'] / c['dt_size']:.3g} x its size estimate h/c (the smallest altitude "
-                        f"follows the thinnest spot of the wedge-like cell, next to its corner of "
-                        f"{c['max_angle']:.1f} degrees; the element's frequency follows its whole shape): "
-                        f"--set analysis.stable_step=element takes the element's step")
+        remedies.append(Message(f"the cell's own elastic element step 2/omega_max is {c['dt_element']:.3g} s, "
+                                f"{c['dt_element'] / c['dt_size']:.3g} x its size estimate h/c (the smallest "
+                                f"altitude follows the thinnest spot of the wedge-like cell, next to its corner of "
+                                f"{c['max_angle']:.1f} degrees; the element's frequency follows its whole shape): ",
+                                element_step, " takes the element's step"))
     if mass_scaling_dt > 0.0:
-        remedies.append(f"selective mass scaling is on (analysis.mass_scaling_dt = {mass_scaling_dt * 1e6:.4g} us) "
-                        f"and did not hold the step: a target above the floor ({dt_floor * dt_stable0 * 1e6:.3g} "
-                        f"us) adds ever more mass as the cell thins")
+        remedies.append(Message("selective mass scaling is on (", Arg("mass_scaling_dt", mass_scaling_dt, "s",
+                                                                      "value", ".4g"),
+                                ") and did not hold the step: a target above the floor (",
+                                Arg("mass_scaling_dt", dt_floor * dt_stable0, "s", "amount", ".3g"),
+                                ") adds ever more mass as the cell thins"))
     else:
-        remedies.append(f"selective mass scaling, e.g. --set analysis.mass_scaling_dt={suggest:g} (us, the target "
-                        f"stable step, 0.2 of the initial one: mass is added to the cells below it and reported "
-                        f"in history.csv and summary.json; it cannot keep up with a cell that thins to nothing)")
-    remedies.append("a finer mesh (mesh.refine) or one graded toward that cell")
-    msg = (f"time step collapsed at t = {solver.t * 1e6:.4g} us (step {solver.step_count}): the stable step "
-           f"{dt_stable:.4g} s is {ratio:.3g} of its initial value {dt_stable0:.4g} s, below "
-           f"analysis.dt_floor = {dt_floor:g}. It is set by cell {c['cell']} (the mesh file's cell order) "
-           f"at {pos} (reference {ref}): "
-           + (f"size (volume / largest face area) {c['size']:.3g} mm, aspect ratio {c['aspect']:.3g} (longest "
-              f"edge / size), volume ratio J = {c['volume_ratio']:.3g}" if hexa else
-              f"smallest size {c['size']:.3g} mm, aspect ratio {c['aspect']:.3g} "
-              f"(longest edge / smallest size), volume ratio J = {c['volume_ratio']:.3g}, corner angles "
-              f"{c['min_angle']:.1f} to {c['max_angle']:.1f} degrees")
-           + (f", mass-scaling density factor {c['factor']:.3g}" if c["factor"] > 1.0 else "")
-           + ". Remedies: " + "; ".join(remedies) + ". (A lower analysis.dt_floor lets the run go on, at "
-           "ever smaller steps.)")
+        # the target suggested: 0.2 of the initial step, to 2 digits in the unit shown
+        remedies.append(Message("selective mass scaling, e.g. ",
+                                Arg("mass_scaling_dt", 0.2 * dt_stable0, "s", "set", digits=2),
+                                " (", Arg("mass_scaling_dt", unit="s", form="unit"),
+                                ", the target stable step, 0.2 of the initial one: mass is added to the cells below "
+                                "it and reported in history.csv and summary.json; it cannot keep up with a cell that "
+                                "thins to nothing)"))
+    remedies.append(Message("a finer mesh (", Arg("mesh"), ") or one graded toward that cell"))
+    listed = [remedies[0]]
+    for r in remedies[1:]:
+        listed += ["; ", r]
+    msg = Message(f"time step collapsed at t = {solver.t * 1e6:.4g} us (step {solver.step_count}): the stable step "
+                  f"{dt_stable:.4g} s is {ratio:.3g} of its initial value {dt_stable0:.4g} s, below ",
+                  Arg("dt_floor", dt_floor, form="value"),
+                  f". It is set by cell {c['cell']} (the mesh file's cell order) at {pos} (reference {ref}): "
+                  + (f"size (volume / largest face area) {c['size']:.3g} mm, aspect ratio {c['aspect']:.3g} "
+                     f"(longest edge / size), volume ratio J = {c['volume_ratio']:.3g}" if hexa else
+                     f"smallest size {c['size']:.3g} mm, aspect ratio {c['aspect']:.3g} "
+                     f"(longest edge / smallest size), volume ratio J = {c['volume_ratio']:.3g}, corner angles "
+                     f"{c['min_angle']:.1f} to {c['max_angle']:.1f} degrees")
+                  + (f", mass-scaling density factor {c['factor']:.3g}" if c["factor"] > 1.0 else "")
+                  + ". Remedies: ", listed, ". (A lower ", Arg("dt_floor"),
+                  " lets the run go on, at ever smaller steps.)")
     results = dict(stop_reason="time_step_floor", stopped_at_us=solver.t * 1e6, dt_collapse_ratio=ratio,
                    collapse_cell=c["cell"],
                    collapse_cell_position_mm=c["position"], collapse_cell_reference_mm=c["reference"],
@@ -160,7 +171,8 @@ def collapse_error(solver, dt_stable, dt_stable0, dt_floor, mass_scaling_dt) -> 
 FOLD_IN_ONE_STEP = 0.05
 
 
-def fold_error(solver, fold, dt_stable0, dt_floor, mass_scaling_dt, step_key="analysis.dt_safety") -> CellFold:
+def fold_error(solver, fold, dt_stable0, dt_floor, mass_scaling_dt,
+               step_key=Message(Arg("dt_safety"))) -> CellFold:
     """The :class:`CellFold` of a step that would fold a cell (collective), the solver back at the
     last finite state. ``fold``: each rank's note of the failed step (``ExplicitDynamics._fold_back``:
     ``cell``, its most folded owned cell there, ``j_next`` that cell's smallest point Jacobian,
@@ -168,9 +180,9 @@ def fold_error(solver, fold, dt_stable0, dt_floor, mass_scaling_dt, step_key="an
     all ranks (ties: the lowest index in the mesh file), described at the stop as the time-step
     floor's cell is (:func:`critical_cell`), with the remedies: when its point Jacobian would fall by
     more than :data:`FOLD_IN_ONE_STEP` in that one step, the step is long for the motion (the Taylor
-    bar at 5000 m/s: nodes move half a cell per step) and ``step_key`` (the scene key of the step
-    size, with its value) is named; otherwise the cell flattened over many steps, which a smaller
-    step does not prevent."""
+    bar at 5000 m/s: nodes move half a cell per step) and ``step_key`` (the argument of the step
+    size, with its value: a :class:`~fenics_plast.errors.Message`) is named; otherwise the cell
+    flattened over many steps, which a smaller step does not prevent."""
     comm = solver.comm
     i = fold["cell"]
     orig = int(solver.mesh.topology.original_cell_index[i]) if i >= 0 else np.iinfo(np.int64).max
@@ -209,24 +221,26 @@ def fold_error(solver, fold, dt_stable0, dt_floor, mass_scaling_dt, step_key="an
              f"J = {c['volume_ratio']:.3g}" if hexa else
              f"smallest size {c['size']:.3g} mm, aspect ratio {c['aspect']:.3g}, volume ratio J = "
              f"{c['volume_ratio']:.3g}, corner angles {c['min_angle']:.1f} to {c['max_angle']:.1f} degrees")
-    scaling = "selective mass scaling (analysis.mass_scaling_dt" + (
-        f" = {mass_scaling_dt * 1e6:.4g} us)" if mass_scaling_dt > 0.0 else ")")
+    scaling = Message("selective mass scaling (", Arg("mass_scaling_dt", mass_scaling_dt, "s", "value", ".4g")
+                      if mass_scaling_dt > 0.0 else Arg("mass_scaling_dt"), ")")
     drop = c["j_now"] - j_next
     if finite and drop > FOLD_IN_ONE_STEP:
-        step = (f"The point Jacobian would fall by {drop:.3g} in this one step: the step is long for the motion "
-                f"there (its nodes move a large part of the cell per step), and a smaller step ({step_key}) "
-                f"follows the crushing further; {scaling} does not. Other remedies:")
+        step = Message(f"The point Jacobian would fall by {drop:.3g} in this one step: the step is long for the "
+                       f"motion there (its nodes move a large part of the cell per step), and a smaller step (",
+                       step_key, ") follows the crushing further; ", scaling,
+                       " does not. Other remedies:")
     else:
-        step = (f"The cell flattened over many steps: neither a smaller step ({step_key}) nor {scaling} "
-                f"prevents the fold. Remedies:")
-    msg = (f"{head} The run stops at the last finite state, t = {solver.t * 1e6:.4g} us (step "
-           f"{solver.step_count}), where the cell is at {pos} (reference {ref}): {shape}. The stable step "
-           f"is then {ratio:.3g} of its initial value, above analysis.dt_floor = {dt_floor:g}: a fold is not "
-           f"a collapse of the time step, which the floor would catch. {step} element erosion "
-           "(analysis.erosion_ratio, e.g. 0.1) removes a cell about to fold and goes on; a finer mesh "
-           "(mesh.refine) or one graded toward that cell delays the fold; another element or material model "
-           "(mesh.element, materials.<name>.model) may follow the deformation further; a node passing a rigid "
-           "support's plane is stopped by a wall on every node (boundary type 'wall')")
+        step = Message("The cell flattened over many steps: neither a smaller step (", step_key, ") nor ", scaling,
+                       " prevents the fold. Remedies:")
+    msg = Message(f"{head} The run stops at the last finite state, t = {solver.t * 1e6:.4g} us (step "
+                  f"{solver.step_count}), where the cell is at {pos} (reference {ref}): {shape}. The stable step "
+                  f"is then {ratio:.3g} of its initial value, above ", Arg("dt_floor", dt_floor, form="value"),
+                  ": a fold is not a collapse of the time step, which the floor would catch. ", step,
+                  " element erosion (", Arg("erosion_ratio"), ", e.g. 0.1) removes a cell about to fold and goes "
+                  "on; a finer mesh (", Arg("mesh"), ") or one graded toward that cell delays the fold; another "
+                  "element or material model (", Arg("element"), ", ", Arg("material.model"), ") may follow the "
+                  "deformation further; a node passing a rigid support's plane is stopped by a wall on every node (",
+                  Arg("add_wall"), ")")
     results = dict(stop_reason="cell_fold" if finite else "non_finite_displacement", stopped_at_us=solver.t * 1e6,
                    dt_collapse_ratio=ratio, fold_cell=c["cell"],
                    fold_cell_position_mm=c["position"], fold_cell_reference_mm=c["reference"],

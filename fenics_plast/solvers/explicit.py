@@ -80,7 +80,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from fenics_plast import dolfinx_compat as dc
-from fenics_plast.errors import RunError
+from fenics_plast.errors import Arg, Message, RunError
 from fenics_plast.material import MaterialRegions
 from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 from fenics_plast.schema import choices, default, key
@@ -798,6 +798,10 @@ class ExplicitDynamics(CellSteps):
         the run stops at the last finite state with a :class:`~fenics_plast.solvers.collapse.CellFold`
         (a TimeStepCollapse naming the cell and the remedies, with the statistics and loop variables);
         a stress or force that is non-finite otherwise raises a RunError at once (the step not taken).
+        The errors' messages name the solver's arguments (a :class:`~fenics_plast.errors.Message` of
+        :class:`~fenics_plast.errors.Arg`: ``dt_safety``, ``steps``, ``dt_floor``, ``mass_scaling_dt``,
+        ``stable_step``, ``erosion_ratio``, ``element``, and ``mesh``, ``material.model``, ``add_wall``);
+        ``str()`` words them so, a driver in its own terms (``RunError.worded``).
         Returns a dict of run statistics.
         """
         for name, value in (("dt_safety", dt_safety), ("dt_floor", dt_floor), ("mass_scaling_dt", mass_scaling_dt)):
@@ -807,10 +811,10 @@ class ExplicitDynamics(CellSteps):
         if steps is not None:
             dt_fixed = end_time / int(steps)
             if dt_fixed > dt_stable0:
-                raise RunError(
+                raise RunError(Message(
                     f"time step end_time/steps = {dt_fixed:.4g} s ({int(steps)} steps) exceeds the stable "
                     f"limit {dt_stable0:.4g} s ({self._limit_text(dt_stable0)}); use at least "
-                    f"{math.ceil(end_time / dt_stable0)} steps or drop analysis.time_steps")
+                    f"{math.ceil(end_time / dt_stable0)} steps or drop ", Arg("steps")))
         if self.KE0 is None:
             self.initialize()
         row_times = np.linspace(0.0, end_time, max(int(rows), 2))
@@ -881,8 +885,8 @@ class ExplicitDynamics(CellSteps):
             if self._fold is not None:
                 # the next step would fold a cell (every rank knows): stop at the last finite state
                 e = fold_error(self, self._fold, dt_stable0, dt_floor, mass_scaling_dt,
-                               step_key=f"analysis.dt_safety, now {dt_safety:g}" if steps is None else
-                               f"more analysis.time_steps than {int(steps)}")
+                               step_key=Message(Arg("dt_safety"), f", now {dt_safety:g}") if steps is None else
+                               Message("more ", Arg("steps"), f" than {int(steps)}"))
                 self._fold = None
                 e.stats = stats(e.dt_stable)
                 e.loop = dict(next_row=next_row, next_prog=next_prog, dt_stable=dt_stable,
@@ -907,11 +911,11 @@ class ExplicitDynamics(CellSteps):
                         self.scale_mass(mass_scaling_dt)
                     dt_stable = self.stable_dt()
                     if dt_fixed > dt_stable:       # the mesh has crushed below the fixed step's size
-                        raise RunError(
+                        raise RunError(Message(
                             f"the fixed time step end_time/steps = {dt_fixed:.4g} s exceeds the stable limit "
                             f"{dt_stable:.4g} s of the deformed mesh at t = {self.t * 1e6:.4g} us (step "
-                            f"{self.step_count}, {self._limit_text(dt_stable)}): raise "
-                            f"analysis.time_steps or drop it (adaptive step)")
+                            f"{self.step_count}, {self._limit_text(dt_stable)}): raise ", Arg("steps"),
+                            " or drop it (adaptive step)"))
             while next_row < len(row_times) and self.t >= row_times[next_row] - eps_t:
                 if self.erosion_ratio > 0.0:
                     self._log_erosion()
@@ -955,20 +959,21 @@ class ExplicitDynamics(CellSteps):
         found = [x for x in (self.comm.allgather(loc) if self.comm.size > 1 and not local else [loc]) if x is not None]
         return found[0] if found else None
 
-    def _unstable_message(self, dt, why, dts=None, local=False):
-        """The message of a run gone unstable (collective unless ``local``)."""
+    def _unstable_message(self, dt, why, dts=None, local=False) -> Message:
+        """The message of a run gone unstable (collective unless ``local``), the remedies naming the
+        solver's arguments (:class:`~fenics_plast.errors.Message`)."""
         dts = self.stable_dt() if dts is None else dts
         head = (f"explicit run went unstable at t = {self.t * 1e6:.4g} us (step {self.step_count}): {why}; "
                 f"time step {dt:.4g} s, current stable limit {dts:.4g} s.")
         bad = self._nonfinite_cell(local)
         if bad is None:
-            return head + " Lower analysis.dt_safety or raise analysis.time_steps"
+            return Message(head, " Lower ", Arg("dt_safety"), " or raise ", Arg("steps"))
         ax = ("r", "z") if self.kin.axisymmetric else ("x", "y", "z")[: self.bs]
         where = f"({', '.join(ax)}) = ({', '.join(f'{x:.4g}' for x in bad[1])}) mm"
-        return (head + f" The stress became non-finite in cell {bad[0]} (the mesh file's cell order; reference "
-                f"{where}): most likely the cell folded "
-                f"(inverted), which a smaller time step does not prevent, nor mass scaling. Remedies: a finer mesh "
-                f"(mesh.refine) or one graded toward that cell; another element or material model "
-                f"(mesh.element, materials.<name>.model) may follow the deformation further; element erosion "
-                f"(analysis.erosion_ratio) removes such cells and goes on; a node passing a rigid support's "
-                f"plane is stopped by a wall on every node (boundary type 'wall')")
+        return Message(head, f" The stress became non-finite in cell {bad[0]} (the mesh file's cell order; "
+                       f"reference {where}): most likely the cell folded (inverted), which a smaller time step does "
+                       "not prevent, nor mass scaling. Remedies: a finer mesh (", Arg("mesh"), ") or one graded "
+                       "toward that cell; another element or material model (", Arg("element"), ", ",
+                       Arg("material.model"), ") may follow the deformation further; element erosion (",
+                       Arg("erosion_ratio"), ") removes such cells and goes on; a node passing a rigid support's "
+                       "plane is stopped by a wall on every node (", Arg("add_wall"), ")")

@@ -1,8 +1,7 @@
 """Iterative linear solves for the static Newton iterations: GMRES + PETSc GAMG with rigid-body modes.
 
-``analysis.linear_solver = "gamg"`` (:class:`fenics_plast.solvers.static.StaticSolver`,
-``linear_solver="gamg"``) replaces MUMPS LU for meshes whose factorisation costs too much memory or
-time (3-D hexahedral meshes of 1e5 dofs and more).
+``linear_solver="gamg"`` (:class:`fenics_plast.solvers.static.StaticSolver`) replaces MUMPS LU for
+meshes whose factorisation costs too much memory or time (3-D hexahedral meshes of 1e5 dofs and more).
 
 * Plain Q1 (``element="q1"``): the Jacobian is the displacement block itself; GMRES is
   preconditioned by GAMG with the rigid-body modes of the mesh (3-D: 3 translations + 3 rotations;
@@ -24,7 +23,7 @@ time (3-D hexahedral meshes of 1e5 dofs and more).
   iterations; q1, GMRES 20 Newton iterations (38-51 linear), CG 25 (29-47 linear: its steps
   are poorer). GAMG's solution equals MUMPS's to 4e-14 of the largest displacement there.
 
-The linear tolerance ``rtol`` (``analysis.linear_rtol``) is relative to the Newton residual; with
+The linear tolerance ``rtol`` (the solver's ``linear_rtol``) is relative to the Newton residual; with
 1e-8 Newton keeps its quadratic convergence to the usual tolerances. A linear solve that does not
 converge makes the Newton iteration fail (cut-back), like a failed factorisation.
 """
