@@ -78,9 +78,12 @@ class QuadratureMap:
         self._Fu = np.zeros((self.n_owned, self.nq * 9))
 
         # committed and trial state: every declared variable (the kernels take them all); ``variables``
-        # those of this material, the ones committed, checkpointed and written
+        # those of this material, the ones committed, checkpointed and written. All committed arrays, then
+        # the trial copies: the heap layout (array alignment) moves the last bit of BLAS dot products
+        # (e.g. the elastic energy), so this order keeps the outputs of earlier versions bit for bit
         for v in STATE:
             setattr(self, v.name, initial_values(v, material, self.n))
+        for v in STATE:
             setattr(self, v.name + "_trial", getattr(self, v.name).copy())
         self.variables = present(material)
         self.thermal = bool(getattr(material, "thermal", False))
