@@ -79,8 +79,9 @@ class QuadratureMap:
 
         # committed and trial state: every declared variable (the kernels take them all); ``variables``
         # those of this material, the ones committed, checkpointed and written. All committed arrays, then
-        # the trial copies: the heap layout (array alignment) can move the last bit of BLAS dot products
-        # (the elastic energy); this order gives the shipped scenes' outputs of earlier versions bit for bit
+        # the trial copies: the heap layout (array alignment) moves the last bit of BLAS dot products (the
+        # elastic energy); this order gives earlier versions' outputs bit for bit (measured with address
+        # randomisation off, setarch -R; one variable's pair after the other's did not)
         for v in STATE:
             setattr(self, v.name, initial_values(v, material, self.n))
         for v in STATE:
