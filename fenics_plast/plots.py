@@ -23,6 +23,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from fenics_plast.state_variables import by_output
+
 __all__ = ["Lines", "Cells", "PlotError", "draw_declared", "declared_figures", "read_csv", "cells_table"]
 
 
@@ -257,7 +259,7 @@ def declared_figures(settings: Mapping[str, Any], references: Mapping[str, Any] 
                               group_label="t = {:g}"))
         else:
             field = p.get("field") or "eqps"
-            label = "temperature [K]" if field == "temperature" else "equivalent plastic strain"
+            label = by_output(field).label()
             figs.append(Cells(name, field, label, title, "final_shape.csv", mirror=axisym,
                               xlabel="r [mm]" if axisym else "x [mm]", ylabel="z [mm]" if axisym else "y [mm]"))
     return figs

@@ -9,11 +9,15 @@ The trial state is kept until ``commit()``; nothing is needed to restore since e
 starts from the committed state. Points are numbered cell-major over the owned cells (point
 p = c nq + q of owned cell c), the numbering a ``MaterialRegions`` (several materials) relies on.
 
-Temperature (``temperature``, ``temperature_trial``, (n,) [K]): the state of Johnson-Cook materials,
-their initial temperature at the start (0 at points of materials without one; ``thermal`` says
-whether any material has one). ``dt`` (a (1,) array, [s]): the time increment of the update (plastic
-strain rate, adiabatic heating), set by the explicit solver before each step; it stays 0 in static
-analyses (the static convention: no rate term, no heating).
+State: every variable of :data:`fenics_plast.state_variables.STATE` is an attribute, committed
+(``binv`` (n,3,3), ``eqps`` (n,), ``temperature`` (n,) [K]) and trial (``binv_trial``, ...), allocated
+with its initial values; ``variables`` holds those of this material (``state_variables.present``), the
+ones :meth:`commit`, :meth:`state` / :meth:`set_state` (checkpoints) and :meth:`fields` (cell-mean
+output) iterate over. Temperature: the state of Johnson-Cook materials, their initial temperature at
+the start (0 at points of materials without one; ``thermal`` says whether any material has one).
+``dt`` (a (1,) array, [s]): the time increment of the update (plastic strain rate, adiabatic heating),
+set by the explicit solver before each step; it stays 0 in static analyses (the static convention:
+no rate term, no heating).
 
 Never write a quadrature Function to XDMF (segfaults in dolfinx 0.5.2): use ``cell_mean``.
 """
@@ -24,6 +28,7 @@ import ufl
 from dolfinx import fem
 
 from fenics_plast import dolfinx_compat as dc
+from fenics_plast.state_variables import STATE, present
 
 
 class MaterialUpdateError(RuntimeError):
@@ -72,14 +77,17 @@ class QuadratureMap:
         self.Fu_expr = None if Fu_expr is None else fem.Expression(Fu_expr, self.points)
         self._Fu = np.zeros((self.n_owned, self.nq * 9))
 
-        # committed and trial state
-        self.binv = np.tile(np.eye(3), (self.n, 1, 1))
-        self.eqps = np.zeros(self.n)
-        self.binv_trial = self.binv.copy()
-        self.eqps_trial = self.eqps.copy()
+        # committed and trial state: every declared variable (the kernels take them all); ``variables``
+        # those of this material, the ones committed, checkpointed and written. All committed arrays, then
+        # the trial copies: the heap layout (array alignment) moves the last bit of BLAS dot products (the
+        # elastic energy); this order gives earlier versions' outputs bit for bit (measured with address
+        # randomisation off, setarch -R; one variable's pair after the other's did not)
+        for v in STATE:
+            setattr(self, v.name, initial_values(v, material, self.n))
+        for v in STATE:
+            setattr(self, v.name + "_trial", getattr(self, v.name).copy())
+        self.variables = present(material)
         self.thermal = bool(getattr(material, "thermal", False))
-        self.temperature = material.initial_temperatures(self.n)
-        self.temperature_trial = self.temperature.copy()
         self.dt = np.zeros(1)                    # time increment of the update [s]; 0: no physical time
         # trivial dofmap: the material writes straight into the Functions' arrays (views)
         self.tau_values = (self.tau.x.array[: self.n * 9].reshape(self.n, 3, 3) if self.trivial_tau
@@ -150,10 +158,29 @@ class QuadratureMap:
         fun.x.scatter_forward()
 
     def commit(self):
-        self.binv[:] = self.binv_trial
-        self.eqps[:] = self.eqps_trial
-        if self.thermal:
-            self.temperature[:] = self.temperature_trial
+        for v in self.variables:
+            getattr(self, v.name)[:] = getattr(self, v.name + "_trial")
+
+    # -- state by declaration ----------------------------------------------------------------
+    def state(self) -> dict:
+        """The committed state of this material's variables, ``{name: (n,) + shape array}`` (views)."""
+        return {v.name: getattr(self, v.name) for v in self.variables}
+
+    def set_state(self, values) -> None:
+        """Set the committed and trial state from ``{name: (n,) + shape}`` (e.g. a checkpoint's rows);
+        every variable of this material must be given."""
+        for v in self.variables:
+            getattr(self, v.name)[:] = values[v.name]
+            getattr(self, v.name + "_trial")[:] = values[v.name]
+
+    def fields(self, out=None) -> dict:
+        """Cell means (DG0 Functions named by each variable's ``output``) of the written variables,
+        ``{output: Function}``; ``out``: such a dict from an earlier call, reused."""
+        out = {} if out is None else out
+        for v in self.variables:
+            if v.output:
+                out[v.output] = self.cell_mean(getattr(self, v.name), name=v.output, out=out.get(v.output))
+        return out
 
     # -- output ----------------------------------------------------------------------------
     def _weights(self):
@@ -175,6 +202,15 @@ class QuadratureMap:
         out.x.array[self._dg0_dofs] = (vals * cw).sum(axis=1)
         out.x.scatter_forward()
         return out
+
+
+def initial_values(variable, material, n: int) -> np.ndarray:
+    """(n,) + shape values of a state variable at n virgin points (its ``initial`` rule)."""
+    if variable.initial == "zero":
+        return np.zeros((n,) + variable.shape)
+    if variable.initial == "identity":
+        return np.tile(np.eye(variable.shape[0]), (n, 1, 1))
+    return getattr(material, variable.initial)(n)
 
 
 def von_mises(tau, J=None):

@@ -68,15 +68,18 @@ def checkpointer(problem, output, comm):
 
 
 def write_final_shape(problem, output, V, positions, qmap):
-    """final_shape.csv (deformed cells and their mean eqps, and temperature with Johnson-Cook materials)
-    when the scene declares a shape plot; collective."""
+    """final_shape.csv (deformed cells and the cell means of the written state variables: eqps, and
+    temperature with Johnson-Cook materials) when the scene declares a shape plot; collective."""
     if not any(p.type == "shape" for p in problem.plots.values()):
         return
     from fenics_plast.plots import cells_table
-    table = cells_table(V, positions, qmap.cell_mean(qmap.eqps, name="eqps"), "eqps")
-    if qmap.thermal:
-        table["temperature"] = cells_table(V, positions, qmap.cell_mean(qmap.temperature, name="temperature"),
-                                           "temperature")["temperature"]
+    table = None
+    for name, fun in qmap.fields().items():
+        column = cells_table(V, positions, fun, name)
+        if table is None:
+            table = column
+        else:
+            table[name] = column[name]
     output.write_csv("final_shape", table)
 
 

@@ -181,7 +181,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
                    f"about {rows - 1} time steps: {rows} history rows (one per step at most)")
     every = int(problem.output.every)
     xf = open_fields(problem, output, comm, mesh)
-    state = dict(row=0, eqps=None, temperature=None)
+    state = dict(row=0, fields={})
 
     ck = checkpointer(problem, output, comm)
     loop = None
@@ -217,13 +217,9 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
                 and state.get("fields_t") != t:
             state["fields_t"] = t
             fields_guard(s, f"{problem.name}: fields at t = {t / US:.6g} us")
-            state["eqps"] = s.qmap.cell_mean(s.qmap.eqps, name="eqps", out=state["eqps"])
             xf.write_function(s.u, t / US)
-            xf.write_function(state["eqps"], t / US)
-            if s.qmap.thermal:         # Johnson-Cook: the temperature [K]
-                state["temperature"] = s.qmap.cell_mean(s.qmap.temperature, name="temperature",
-                                                        out=state["temperature"])
-                xf.write_function(state["temperature"], t / US)
+            for f in s.qmap.fields(out=state["fields"]).values():     # eqps, temperature (Johnson-Cook) [K]
+                xf.write_function(f, t / US)
             if s.erosion_ratio > 0.0:   # 1 on the eroded cells (a Threshold in ParaView hides them)
                 state["eroded"] = eroded_field(s, state.get("eroded"))
                 xf.write_function(state["eroded"], t / US)
@@ -301,9 +297,9 @@ def nonfinite_guard(values: dict, where: str):
 
 
 def fields_guard(solver, where: str):
-    """:func:`nonfinite_guard` for the fields written (displacement, equivalent plastic strain,
-    temperature: their sources; collective)."""
-    arrays = [solver.u.x.array, solver.qmap.eqps] + ([solver.qmap.temperature] if solver.qmap.thermal else [])
+    """:func:`nonfinite_guard` for the fields written (displacement, the written state variables:
+    their sources; collective)."""
+    arrays = [solver.u.x.array] + [getattr(solver.qmap, v.name) for v in solver.qmap.variables if v.output]
     bad = not all(np.isfinite(a).all() for a in arrays)
     if solver.comm.size > 1:
         bad = solver.comm.allreduce(bad, op=MPI.LOR)

@@ -206,20 +206,18 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
                f"physics {', '.join(problem.active_physics) or 'elastic'}, set-up {time.perf_counter() - t_setup:.1f} s")
 
     xf = open_fields(problem, output, comm, mesh)
-    names = ("eqps", "von_mises_stress") + (("temperature",) if s.qmap.thermal else ())   # temperature: Johnson-Cook
-    fields = [s.qmap.cell_mean(np.zeros(s.qmap.n), name=n) for n in names] if xf else []
+    fields = {}                 # the state's cell means (QuadratureMap.fields), then von_mises_stress
     state = dict(count=0)
 
     def write_fields(t):
         if xf is None:
             return
         q = s.qmap
-        q.cell_mean(q.eqps, out=fields[0])
-        q.cell_mean(von_mises(q.tau_values, s.qp_jacobian()), out=fields[1])
-        if q.thermal:
-            q.cell_mean(q.temperature, out=fields[2])
+        q.fields(out=fields)
+        fields["von_mises_stress"] = q.cell_mean(von_mises(q.tau_values, s.qp_jacobian()), name="von_mises_stress",
+                                                 out=fields.get("von_mises_stress"))
         xf.write_function(s.displacement_function(), t)
-        for f in fields:
+        for f in fields.values():
             xf.write_function(f, t)
 
     ck = checkpointer(problem, output, comm)

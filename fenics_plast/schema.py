@@ -27,6 +27,7 @@ from typing import Any
 from fenics_plast.hardening_laws import laws as hardening_laws
 from fenics_plast.quantities.registry import KINDS, kind_keys, quantity_doc, taking
 from fenics_plast.scene_key import OPTIONAL, REQUIRED, Key, number_text
+from fenics_plast.state_variables import outputs as state_outputs
 
 __all__ = ["SCHEMA", "SECTIONS", "Key", "Table", "REQUIRED", "OPTIONAL", "COMPONENTS", "COMPONENTS_3D", "GEOMETRIES",
            "component_index", "component_names", "is_cell_count", "vector_size", "LAWS", "US", "M_S", "KG_M3",
@@ -373,7 +374,7 @@ SCHEMA: dict[str, Table] = {
             "y": Key("strs", REQUIRED, "Columns on the y axis (one line each).", when={"type": ("history",)}),
             "output": Key("str", REQUIRED, "Name of a thickness output.", when={"type": ("profile",)}),
             "field": Key("str", "eqps", "The colour of a shape figure: eqps (equivalent plastic strain) or "
-                         "temperature [K] (Johnson-Cook materials).", choices=("eqps", "temperature"),
+                         "temperature [K] (Johnson-Cook materials).", choices=state_outputs(),
                          when={"type": ("shape",)}),
             "title": Key("str", "", "Figure title (default: the scene name)."),
         }),

@@ -609,13 +609,11 @@ class ExplicitDynamics(CellSteps):
         n = self.n_own
         d = dict(u=owned_keyed(self.u, kv), u_n=owned_keyed(self.u_n, kv), v=owned_keyed(self.v, kv),
                  a=Keyed(self.a, kv[:n]), du=Keyed(self.du, kv[:n]), f=Keyed(np.array(self.f), kv[:n]),
-                 binv=Keyed(self.qmap.binv, kq), eqps=Keyed(self.qmap.eqps, kq), t=self.t,
+                 **{k: Keyed(v, kq) for k, v in self.qmap.state().items()}, t=self.t,
                  step_count=self.step_count, KE0=self.KE0, W_int=self._reduce(self.W_int, MPI.SUM),
                  W_ext=self._reduce(self.W_ext, MPI.SUM))
         if self.theta is not None:
             d.update(theta=owned_keyed(self.theta), theta_n=owned_keyed(self.theta_n))
-        if self.qmap.thermal:
-            d.update(temperature=Keyed(self.qmap.temperature, kq))      # Johnson-Cook [K]
         if self.has_drivers:
             d.update(self.drivers.state_dict(kv))
         if self.mass_scaled:
@@ -642,9 +640,8 @@ class ExplicitDynamics(CellSteps):
         """Restore :meth:`state_dict` (collective). Raises CheckpointError (on every rank) when the
         checkpoint is of another mesh or layout. The summed work accumulators go to rank 0."""
         from fenics_plast import checkpoint as ck
-        keys = ["u", "u_n", "v", "a", "du", "f", "binv", "eqps", "t", "step_count", "W_int", "W_ext", "KE0"]
+        keys = ["u", "u_n", "v", "a", "du", "f", *self.qmap.state(), "t", "step_count", "W_int", "W_ext", "KE0"]
         keys += ["theta", "theta_n"] if self.theta is not None else []
-        keys += ["temperature"] if self.qmap.thermal else []
         keys += self.drivers.required_keys() if self.has_drivers else []
         keys += ["E_wall"] if self.walls.active else []
         keys += ["alive"] if self.erosion_ratio > 0.0 else []
@@ -654,7 +651,7 @@ class ExplicitDynamics(CellSteps):
         why = None
         try:
             owned = {k: d[k].take(kv[:n]) for k in ("u", "u_n", "v", "a", "du", "f")}
-            qp = {k: d[k].take(kq) for k in ("binv", "eqps") + (("temperature",) if self.qmap.thermal else ())}
+            qp = {k: d[k].take(kq) for k in self.qmap.state()}
             if self.theta is not None:
                 kt = ck.dof_keys(self.theta.function_space)
                 nt = self.theta.function_space.dofmap.index_map.size_local
@@ -677,9 +674,7 @@ class ExplicitDynamics(CellSteps):
         self.a[:] = owned["a"]
         self.du[:] = owned["du"]
         self.f[:] = owned["f"]
-        for k in qp:
-            getattr(self.qmap, k)[:] = qp[k]
-            getattr(self.qmap, k + "_trial")[:] = qp[k]
+        self.qmap.set_state(qp)
         if self.theta is not None:
             for k in ("theta", "theta_n"):
                 fun = getattr(self, k)

@@ -529,7 +529,7 @@ class StaticSolver:
     def state_dict(self):
         """The state a resumed run needs, at a converged increment (collective; see
         fenics_plast.checkpoint): the owned entries of w, w_n, w_nm1 (displacement [mm] and, q1p0,
-        dilatation), the committed quadrature-point state binv (n,3,3) and eqps (n,) (and the
+        dilatation), the committed quadrature-point state (``qmap.state()``: binv (n,3,3), eqps (n,), the
         temperature (n,) [K] of Johnson-Cook materials), keyed by node, cell or point; the load factor,
         force scale [N], round-off floor [N], counters, the increment and cut-back records, and MUMPS
         ICNTL(14)."""
@@ -537,15 +537,13 @@ class StaticSolver:
         kw, kq = self.checkpoint_keys()
         icntl = PETSc.Options().getInt(self.prefix + "mat_mumps_icntl_14", 100) if self._setup_done else 100
         d = dict(w=owned_keyed(self.w, kw), w_n=owned_keyed(self.w_n, kw), w_nm1=owned_keyed(self.w_nm1, kw),
-                 binv=Keyed(self.qmap.binv, kq), eqps=Keyed(self.qmap.eqps, kq),
+                 **{k: Keyed(v, kq) for k, v in self.qmap.state().items()},
                  lam_converged=self.lam_converged, force_scale=self.force_scale,
                  roundoff_floor=self.roundoff_floor, total_iterations=self.total_iterations,
                  total_iterations_failed=self.total_iterations_failed, increments=self.increments,
                  cutbacks=self.cutbacks, linesearch_retries=self.linesearch_retries,
                  mumps_workspace_raises=getattr(self, "mumps_workspace_raises", []),
                  mumps_icntl_14=icntl)
-        if self.qmap.thermal:
-            d.update(temperature=Keyed(self.qmap.temperature, kq))      # Johnson-Cook [K]
         return d
 
     def checkpoint_keys(self):
@@ -560,9 +558,8 @@ class StaticSolver:
         """Restore :meth:`state_dict` (collective). Raises CheckpointError on every rank when the
         checkpoint is of another mesh or layout."""
         from fenics_plast import checkpoint as ck
-        ck.require(d, ["w", "w_n", "w_nm1", "binv", "eqps", "lam_converged", "force_scale", "roundoff_floor",
-                       "total_iterations", "increments", "cutbacks"] + (["temperature"] if self.qmap.thermal else []),
-                   "static solver")
+        ck.require(d, ["w", "w_n", "w_nm1", *self.qmap.state(), "lam_converged", "force_scale", "roundoff_floor",
+                       "total_iterations", "increments", "cutbacks"], "static solver")
         if not self._setup_done:
             self.setup()
         kw, kq = self.checkpoint_keys()
@@ -570,7 +567,7 @@ class StaticSolver:
         try:
             n = self.W.dofmap.index_map.size_local * self.W.dofmap.index_map_bs
             owned = {k: d[k].take(kw[:n]) for k in ("w", "w_n", "w_nm1")}
-            qp = {k: d[k].take(kq) for k in ("binv", "eqps") + (("temperature",) if self.qmap.thermal else ())}
+            qp = {k: d[k].take(kq) for k in self.qmap.state()}
         except ck.CheckpointError as e:
             why = str(e)
         ck.raise_on_any(self.comm, why)
@@ -578,9 +575,7 @@ class StaticSolver:
             fun = getattr(self, k)
             fun.x.array[:n] = owned[k]
             fun.x.scatter_forward()
-        for k in qp:
-            getattr(self.qmap, k)[:] = qp[k]
-            getattr(self.qmap, k + "_trial")[:] = qp[k]
+        self.qmap.set_state(qp)
         self.lam_converged = float(d["lam_converged"])
         self.set_load(self.lam_converged)
         self.force_scale = float(d["force_scale"])

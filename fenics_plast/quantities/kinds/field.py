@@ -1,10 +1,12 @@
 """field: the largest or smallest value of a quadrature-point field over cell regions (or the body):
-eqps, von_mises [MPa] or temperature [K]."""
+a written state variable (:mod:`fenics_plast.state_variables`: eqps, temperature [K]) or von_mises
+[MPa]."""
 from __future__ import annotations
 
 import numpy as np
 
 from fenics_plast.scene_key import REQUIRED, Key
+from fenics_plast.state_variables import by_output, outputs
 
 NAME, ORDER = "field", 70
 DOC = "field: largest or smallest value of a field over a region (or the body)"
@@ -12,12 +14,14 @@ TAKES = ("which", "regions")
 KEYS = {
     "field": Key("str", REQUIRED, "eqps: equivalent plastic strain; von_mises: Kirchhoff von Mises "
                  "stress [MPa]; temperature [K] (Johnson-Cook materials; points of other materials "
-                 "hold 0).", choices=("eqps", "von_mises", "temperature")),
+                 "hold 0).", choices=outputs() + ("von_mises",)),
 }
 
 
 def columns(name, o):
-    return [{"von_mises": f"{name}_MPa", "temperature": f"{name}_K"}.get(o.field, name)]
+    v = by_output(o.field)
+    unit = "MPa" if v is None else v.unit          # None: von_mises
+    return [f"{name}_{unit}" if unit else name]
 
 
 def value(name, o, q, time, row):
@@ -26,8 +30,8 @@ def value(name, o, q, time, row):
     from fenics_plast.quadrature import von_mises
     b, comm = q.body, q.body.comm
     qm = b.qmap
-    vals = (qm.eqps if o.field == "eqps" else qm.temperature if o.field == "temperature"
-            else von_mises(qm.tau_values))
+    v = by_output(o.field)
+    vals = von_mises(qm.tau_values) if v is None else getattr(qm, v.name)
     if o.regions is not None:
         cells = np.concatenate([b.cell_regions[r] for r in o.regions])
         vals = vals.reshape(-1, qm.nq)[cells]
