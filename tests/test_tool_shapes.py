@@ -38,6 +38,8 @@ EXAMPLES = {
                                   ("line", (0.9, 0.0), (2.5, 0.0)))),
                 3: dict(segments=(("line", (0.5, -1.5), (0.5, -0.4)), ("arc", (0.9, -0.4), 0.4, 180, 90),
                                   ("line", (0.9, 0.0), (2.5, 0.0))), center=(0.9, 0.5, 0.3), axis=(0.1, 0.2, 1.0))},
+    "box": {2: dict(center=(1.0, 0.3), half_sizes=(0.8, 0.4), edge_radius=0.3),
+            3: dict(center=(1.0, 0.3, 0.2), half_sizes=(0.8, 0.4, 0.5), edge_radius=0.3)},
 }
 CASES = [(name, dim) for name, by_dim in EXAMPLES.items() for dim in by_dim]
 T = 0.7                                                      # the time the tools are read at
@@ -155,3 +157,21 @@ def test_tool_refuses_unknown_shapes_and_missing_keys():
         Tool("circle", center=(0.0, 0.0))
     with pytest.raises(ValueError, match="exists in 3-D, not in 2-D"):
         Tool("sphere", center=(0.0, 0.0, 0.0), radius=1.0, dim=2)
+
+
+def test_box_closed_form():
+    """A box of core half sizes (1, 2, 3) and edge radius 0.5: on the faces' normals, beyond an edge and a
+    corner, on the rounded edge (g = 0) and inside; the 2-D box is its (x, y) section."""
+    box = Tool("box", center=(0.0, 0.0, 0.0), half_sizes=(1.0, 2.0, 3.0), edge_radius=0.5)
+    t = np.radians(30.0)
+    x = np.array([[3.0, 0.0, 0.0], [0.0, -4.0, 1.0], [2.0, 3.0, 0.0], [-2.0, 3.0, 4.0],
+                  [1.0 + 0.5 * np.cos(t), 2.0 + 0.5 * np.sin(t), 0.0], [0.5, 0.0, 0.0], [0.0, 0.0, -2.9]])
+    g, N = box.gap_np(x, 0.0)
+    r2, r3 = np.sqrt(2.0), np.sqrt(3.0)
+    np.testing.assert_allclose(g, [1.5, 1.5, r2 - 0.5, r3 - 0.5, 0.0, -1.0, -0.6], atol=1e-14)
+    np.testing.assert_allclose(N, [[1, 0, 0], [0, -1, 0], [1 / r2, 1 / r2, 0], [-1 / r3, 1 / r3, 1 / r3],
+                                   [np.cos(t), np.sin(t), 0], [1, 0, 0], [0, 0, -1]], atol=1e-14)
+    flat = Tool("box", center=(0.0, 0.0), half_sizes=(1.0, 2.0), edge_radius=0.5)
+    g2, N2 = flat.gap_np(x[[0, 2, 4, 5], :2], 0.0)
+    np.testing.assert_allclose(g2, g[[0, 2, 4, 5]], atol=1e-14)
+    np.testing.assert_allclose(N2, N[[0, 2, 4, 5], :2], atol=1e-14)
