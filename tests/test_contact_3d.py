@@ -190,10 +190,10 @@ def _kernel(u, du, X, tools, kinds, params, gN, laws, trans, mu=0.3, steps=1):
     hist = [np.full((n, d), 0.3), np.tile(np.eye(d)[-1], (n, 1)), np.full(n, 50.0), np.zeros(n), np.zeros(n)]
     fc, acc, pen, fcon = np.zeros((n, d)), np.zeros((npair, 2 + d)), np.zeros(npair), np.zeros(d * n)
     for _ in range(steps):
-        ck.contact_forces(u, du, 1e-3, X, dofs, cpair, np.full(n, 0.7), np.asarray(kinds, np.int64),
-                          np.asarray(params, dtype=float), np.full(npair, 1e3), np.full(npair, 2e3),
-                          np.full(npair, mu), np.asarray(laws, np.int64), gN, *hist, fc, acc, pen,
-                          trans[0], trans[1], fcon)
+        c = ck.ContactArrays(X, dofs, cpair, np.full(n, 0.7), np.asarray(kinds, np.int64),
+                             np.asarray(params, dtype=float), np.full(npair, 1e3), np.full(npair, 2e3),
+                             np.full(npair, mu), np.asarray(laws, np.int64), gN, *hist, fc, acc, pen)
+        ck.contact_forces(u, du, 1e-3, c, trans[0], trans[1], fcon)
     return fcon, hist, fc, acc, pen
 
 
@@ -275,10 +275,10 @@ def test_3d_kernel_in_the_xy_plane_equals_the_2d_kernel():
                 tr = np.zeros((2, 2, d))
                 tr[1, :, :2] = r.uniform(-0.01, 0.01, (2, 2))
                 fcon = np.zeros(d * n)
-                ck.contact_forces(u, du, 1e-3, np.ascontiguousarray(X), dofs, cpair, np.full(n, 0.7),
-                                  np.array(kinds, np.int64), np.array(params), np.array([1e3, 2e3]),
-                                  np.array([2e3, 1e3]), np.array([0.3, 0.2]), np.array([law, law], np.int64),
-                                  *st, tr[0], tr[1], fcon)
+                c = ck.ContactArrays(np.ascontiguousarray(X), dofs, cpair, np.full(n, 0.7),
+                                     np.array(kinds, np.int64), np.array(params), np.array([1e3, 2e3]),
+                                     np.array([2e3, 1e3]), np.array([0.3, 0.2]), np.array([law, law], np.int64), *st)
+                ck.contact_forces(u, du, 1e-3, c, tr[0], tr[1], fcon)
                 ix = np.arange(n)[:, None] * d + np.arange(2)
                 rows.append(np.concatenate([fcon[ix].ravel(), st[1][:, :2].ravel(), st[6][:, :2].ravel(),
                                             st[3], np.abs(st[4]), st[5], st[7][:, :4].ravel(), st[8]]))

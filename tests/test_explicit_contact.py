@@ -100,9 +100,10 @@ def test_compiled_gaps_match_gap_np():
         for k, gN in ((tool.shape.code, np.zeros((n, 3))), (ck.GENERIC, np.column_stack([g, N]))):
             hist = [np.full((n, 2), 0.3), np.tile([0.0, 1.0], (n, 1)), np.full(n, 50.0), np.zeros(n), np.zeros(n)]
             fc, acc, pen, fcon = np.zeros((n, 2)), np.zeros((1, 4)), np.zeros(1), np.zeros(2 * n)
-            ck.contact_forces(u, du, 1e-3, X, dofs, np.zeros(n, np.int64), np.full(n, 0.7), np.array([k]),
-                              np.array([tool.params]), np.array([1e3]), np.array([2e3]), np.array([0.3]),
-                              np.array([ck.COULOMB]), gN, *hist, fc, acc, pen, tr[0], tr[1], fcon)
+            c = ck.ContactArrays(X, dofs, np.zeros(n, np.int64), np.full(n, 0.7), np.array([k]), np.array([tool.params]),
+                                 np.array([1e3]), np.array([2e3]), np.array([0.3]), np.array([ck.COULOMB]), gN, *hist,
+                                 fc, acc, pen)
+            ck.contact_forces(u, du, 1e-3, c, tr[0], tr[1], fcon)
             out.append((fcon.copy(), acc.copy(), pen.copy()))
         for a, b in zip(*out):
             np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())

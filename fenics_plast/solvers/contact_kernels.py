@@ -16,6 +16,8 @@ normal given, from the tool's ``gap_np``); friction laws :data:`COULOMB`, :data:
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numba
 import numpy as np
 
@@ -27,10 +29,34 @@ GENERIC = -1                    # a tool whose gap and normal come from its gap_
 COULOMB, QUASI_COULOMB = 0, 1
 
 
+class ContactArrays(NamedTuple):
+    """The arrays of :func:`contact_forces`: the nodes of all pairs concatenated (nc rows), the pairs'
+    data (npairs rows), the nodal history and the accumulators (shapes and units there)."""
+    X: np.ndarray           # (nc, dim) reference positions [mm]
+    dofs: np.ndarray        # (nc, dim) the nodes' owned dofs
+    pair: np.ndarray        # (nc,) pair index of each node
+    area: np.ndarray        # (nc,) tributary areas [mm^2]
+    kind: np.ndarray        # (npairs,) tool shape codes or GENERIC
+    params: np.ndarray      # (npairs, m) tool parameter vectors
+    eps: np.ndarray         # (npairs,) normal penalties [N/mm^3]
+    eps_t: np.ndarray       # (npairs,) tangential penalties [N/mm^3]
+    mu: np.ndarray          # (npairs,) friction coefficients
+    law: np.ndarray         # (npairs,) COULOMB | QUASI_COULOMB
+    gN: np.ndarray          # (nc, 1 + dim) given gaps and normals of GENERIC tools
+    t_hist: np.ndarray      # (nc, dim) tangential tractions [MPa]
+    N_hist: np.ndarray      # (nc, dim) normals
+    p_hist: np.ndarray      # (nc,) pressures [MPa]
+    t_scal: np.ndarray      # (nc,) tangential traction, signed (2-D) or its norm (3-D) [MPa]
+    slip: np.ndarray        # (nc,) 1 where in contact and slipping
+    fc: np.ndarray          # (nc, dim) nodal contact forces [N]
+    acc: np.ndarray         # (npairs, 2 + dim) contact energy, tool work [N mm], impulse [N s]
+    pen: np.ndarray         # (npairs,) the run's largest penetration [mm]
+
+
 @_njit
-def contact_forces(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, mu, law, gN,
-                   t_hist, N_hist, p_hist, t_scal, slip, fc, acc, pen, trans_old, trans_new, fcon):
-    """Penalty contact of nodes against rigid tools, Coulomb friction as elastoplastic slip.
+def contact_forces(u, du, dt, c, trans_old, trans_new, fcon):
+    """Penalty contact of nodes against rigid tools, Coulomb friction as elastoplastic slip; c the
+    :class:`ContactArrays`, u, du (owned dofs) the displacement and its increment over the step [mm].
 
     Nodes k (all pairs concatenated): cdofs (nc, 2) their owned dofs, X (nc, 2) reference position
     [mm], cpair (nc,) pair index, area (nc,) tributary area int N_k w dA0 [mm^2]. Per pair p:
@@ -52,10 +78,12 @@ def contact_forces(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, m
 
     3-D (X (nc, 3)): :func:`contact_forces_3d`, the same law with vectors (shapes there).
     """
-    if X.shape[1] == 3:
-        contact_forces_3d(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, mu, law, gN,
-                          t_hist, N_hist, p_hist, t_scal, slip, fc, acc, pen, trans_old, trans_new, fcon)
+    if c.X.shape[1] == 3:
+        contact_forces_3d(u, du, dt, c, trans_old, trans_new, fcon)
         return
+    X, cdofs, cpair, area, kind, params, gN = c.X, c.dofs, c.pair, c.area, c.kind, c.params, c.gN
+    eps, eps_t, mu, law, acc, pen = c.eps, c.eps_t, c.mu, c.law, c.acc, c.pen
+    t_hist, N_hist, p_hist, t_scal, slip, fc = c.t_hist, c.N_hist, c.p_hist, c.t_scal, c.slip, c.fc
     nc = X.shape[0]
     for k in range(nc):
         fcon[cdofs[k, 0]] = 0.0
@@ -120,8 +148,7 @@ def contact_forces(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, m
 
 
 @_njit
-def contact_forces_3d(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, mu, law, gN,
-                      t_hist, N_hist, p_hist, t_scal, slip, fc, acc, pen, trans_old, trans_new, fcon):
+def contact_forces_3d(u, du, dt, c, trans_old, trans_new, fcon):
     """:func:`contact_forces` in 3-D: the tangential traction is a vector of the tangent plane.
 
     Shapes: X (nc, 3) [mm], cdofs (nc, 3), params (npairs, m) (:func:`~fenics_plast.solvers.tool_gaps.gap_3d`;
@@ -135,6 +162,9 @@ def contact_forces_3d(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t
     bound t_tr / |t_tr| (return map on the norm; 2-D: T T^T = P_T, the same law).  t_hist gets the
     vector t, t_scal its norm |t| [MPa]; slip, fc, fcon, N_hist, p_hist, pen as in 2-D.
     """
+    X, cdofs, cpair, area, kind, params, gN = c.X, c.dofs, c.pair, c.area, c.kind, c.params, c.gN
+    eps, eps_t, mu, law, acc, pen = c.eps, c.eps_t, c.mu, c.law, c.acc, c.pen
+    t_hist, N_hist, p_hist, t_scal, slip, fc = c.t_hist, c.N_hist, c.p_hist, c.t_scal, c.slip, c.fc
     nc = X.shape[0]
     N = np.empty(3)
     for k in range(nc):

@@ -285,10 +285,11 @@ class ContactSet:
         return self.pairs[0].comm.allreduce(loc, op=MPI.MIN)
 
     def args(self):
-        """The arguments of contact_forces from X to pen."""
-        return (self.X, self.dofs, self.pair, self.area, self.kind, self.params, self.eps, self.eps_t, self.mu,
-                self.law, self.gN, self.t_hist, self.N_hist, self.p_hist, self.t_scal, self.slip, self.fc, self.acc,
-                self.pen)
+        """The :class:`~fenics_plast.solvers.contact_kernels.ContactArrays` of contact_forces (the arrays
+        themselves: the kernel updates the history in place)."""
+        return ck.ContactArrays(self.X, self.dofs, self.pair, self.area, self.kind, self.params, self.eps,
+                                self.eps_t, self.mu, self.law, self.gN, self.t_hist, self.N_hist, self.p_hist,
+                                self.t_scal, self.slip, self.fc, self.acc, self.pen)
 
     def translations(self, t):
         """(npairs, dim) tool translations at time t [mm]."""
@@ -309,7 +310,7 @@ class ContactSet:
                 g, N = p.tool.gap_np(x, t)
                 self.gN[p.sl, 0] = g
                 self.gN[p.sl, 1:] = np.asarray(N)[:, :self.dim]
-        ck.contact_forces(u, du, dt, *self.args(), trans_old, trans_new, fcon)
+        ck.contact_forces(u, du, dt, self.args(), trans_old, trans_new, fcon)
 
     # -- checkpoints -------------------------------------------------------------------------
     def state_dict(self, dof_keys, comm):
