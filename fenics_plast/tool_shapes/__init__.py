@@ -23,12 +23,11 @@ choices, validation, :class:`fenics_plast.tools.Tool`, both solvers and the comp
 from __future__ import annotations
 
 import functools
-import importlib
 import math
-import pkgutil
 from dataclasses import dataclass, field
 from typing import Callable
 
+from fenics_plast.declarations import gathered
 from fenics_plast.scene_key import Key
 
 __all__ = ["ToolShape", "shapes", "vector"]
@@ -85,16 +84,7 @@ def vector(values: dict, key: str, dim: int, shape: str) -> list[float]:
 
 @functools.lru_cache(maxsize=None)
 def _registry() -> tuple[ToolShape, ...]:
-    found = []
-    for info in pkgutil.iter_modules(__path__):
-        shape = getattr(importlib.import_module(f"{__name__}.{info.name}"), "SHAPE", None)
-        if isinstance(shape, ToolShape):
-            found.append(shape)
-    found.sort(key=lambda s: s.code)
-    for a, b in zip(found, found[1:]):
-        if a.code == b.code:
-            raise RuntimeError(f"tool shapes {a.name!r} and {b.name!r} share the code {a.code}")
-    return tuple(found)
+    return gathered(__name__, __path__, "SHAPE", ToolShape, "tool shapes")
 
 
 def shapes() -> dict[str, ToolShape]:
