@@ -17,8 +17,8 @@ __version__ = "0.1.0"
 
 
 #: package folders whose modules hold plain-Python functions that another module compiles with numba
-#: (they need not mention it): the hardening laws' flow functions
-COMPILED_ELSEWHERE = ("hardening_laws",)
+#: (they need not mention it): the hardening laws' flow functions, the tool shapes' gap formulas
+COMPILED_ELSEWHERE = ("hardening_laws", "tool_shapes")
 
 
 def kernel_source_digest() -> str:

@@ -33,9 +33,10 @@ from fenics_plast import dolfinx_compat as dc
 from fenics_plast.material import Hardening, Material, MaterialRegions
 from fenics_plast.scene_mesh import symmetry_component
 from fenics_plast.schema import M_S, US, component_index
+from fenics_plast.tool_shapes import shapes as tool_shapes
 
 __all__ = ["material_of", "body_material", "cell_regions", "contact_modulus", "components_of", "values_of",
-           "Boundary", "boundaries", "time_function", "tool_path", "tool_dim", "tool_of", "tools_of",
+           "Boundary", "boundaries", "time_function", "tool_path", "tool_values", "tool_dim", "tool_of", "tools_of",
            "tool_force_of", "ContactPair", "contact_pairs", "initial_velocity_field"]
 
 
@@ -199,34 +200,24 @@ def tool_path(path, time_scale=1.0, dim=2):
     return translation
 
 
+def tool_values(spec) -> dict:
+    """{key: value} of a validated [tools.<name>] table's shape keys (absent keys None)."""
+    return {k: spec.get(k) for k in tool_shapes()[spec.shape].params}
+
+
 def tool_dim(spec) -> int:
     """2 or 3: the space a validated [tools.<name>] table lives in (validation has matched its vectors
-    to mesh.geometry: 3-D shapes, 3-vectors, a profile with an axis)."""
-    if spec.shape in ("sphere", "cylinder", "torus"):
-        return 3
-    vec = spec.get("point") if spec.shape == "plane" else spec.get("center")
-    return 3 if vec is not None and len(vec) == 3 else 2
+    to mesh.geometry): :meth:`~fenics_plast.tool_shapes.ToolShape.dim_of`."""
+    return tool_shapes()[spec.shape].dim_of(tool_values(spec))
 
 
 def tool_of(name, spec, time_scale=1.0):
-    """A :mod:`fenics_plast.tools` tool from a validated [tools.<name>] table (2-D or 3-D, from the
+    """A :class:`fenics_plast.tools.Tool` from a validated [tools.<name>] table (2-D or 3-D, from the
     table itself: see :func:`tool_dim`)."""
-    from fenics_plast import tools as T
-    path = tool_path(spec.path, time_scale, dim=tool_dim(spec))
-    if spec.shape == "plane":
-        return T.Plane(spec.point, spec.normal, path=path, name=name)
-    if spec.shape == "circle":
-        return T.Circle(spec.center, spec.radius, path=path, name=name)
-    if spec.shape == "sphere":
-        return T.Sphere(spec.center, spec.radius, path=path, name=name)
-    if spec.shape == "cylinder":
-        return T.Cylinder(spec.center, spec.axis, spec.radius, path=path, name=name)
-    if spec.shape == "torus":
-        return T.Torus(spec.center, spec.axis, spec.ring_radius, spec.radius, path=path, name=name)
-    if spec.center is not None:         # 3-D: revolved about `axis` through `center`
-        return T.RevolvedProfile(spec.segments, spec.center, spec.axis, body_side=spec.body_side, path=path,
-                                 name=name)
-    return T.Profile(spec.segments, body_side=spec.body_side, path=path, name=name)
+    from fenics_plast.tools import Tool
+    dim = tool_dim(spec)
+    return Tool(spec.shape, path=tool_path(spec.path, time_scale, dim=dim), name=name, dim=dim,
+                **tool_values(spec))
 
 
 def tools_of(problem) -> dict:

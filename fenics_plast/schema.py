@@ -28,6 +28,7 @@ from fenics_plast.hardening_laws import laws as hardening_laws
 from fenics_plast.quantities.registry import KINDS, kind_keys, quantity_doc, taking
 from fenics_plast.scene_key import OPTIONAL, REQUIRED, Key, number_text
 from fenics_plast.state_variables import outputs as state_outputs
+from fenics_plast.tool_shapes import shapes as tool_shapes
 
 __all__ = ["SCHEMA", "SECTIONS", "Key", "Table", "REQUIRED", "OPTIONAL", "COMPONENTS", "COMPONENTS_3D", "GEOMETRIES",
            "component_index", "component_names", "is_cell_count", "vector_size", "LAWS", "US", "M_S", "KG_M3",
@@ -64,6 +65,8 @@ def vector_size(geometry: str) -> int:
 
 #: the hardening laws, one module each in fenics_plast/hardening_laws/
 LAWS = tuple(hardening_laws())
+#: the tool shapes, one module each in fenics_plast/tool_shapes/
+TOOL_SHAPES = tuple(tool_shapes())
 STATIC, EXPLICIT = ("static",), ("explicit",)
 US = 1e-6          # explicit times are written in microseconds
 M_S = 1e3          # velocities are written in m/s -> mm/s
@@ -106,26 +109,50 @@ VALUE_DOC = ("a number, an expression of x, y, z, t in quotes (\"3.0*t\"; x, y, 
              "{ t = [...], value = [...] } (piecewise linear, constant outside)")
 
 
-def _hardening_table() -> Table:
-    """``materials.<name>.hardening``, gathered from the laws' declarations
-    (:mod:`fenics_plast.hardening_laws`): each law's keys apply when ``law`` names it; a key several laws
-    declare (alike but for the doc) is one key, its doc each law's ("law: doc") where they differ."""
+def _gathered(declarations, discriminator: str) -> dict[str, Key]:
+    """The keys of the variants ``declarations`` [(variant name, {key: Key})], each applying when
+    ``discriminator`` names a variant that declares it; a key several variants declare (alike but for the
+    doc) is one key, its doc each variant's ("variant: doc") where they differ."""
     users: dict[str, list] = {}
-    for law in hardening_laws().values():
-        for name, k in law.params.items():
-            users.setdefault(name, []).append((law.name, k))
-    keys = {"law": Key("str", REQUIRED, "Hardening law.", choices=LAWS)}
+    for variant, params in declarations:
+        for name, k in params.items():
+            users.setdefault(name, []).append((variant, k))
+    keys = {}
     for name, declared in users.items():
         first = declared[0][1]
-        for law, k in declared[1:]:
+        for variant, k in declared[1:]:
             if replace(k, doc=first.doc) != first:
-                raise ValueError(f"hardening key {name!r}: {law} declares it unlike {declared[0][0]}")
-        docs = {k.doc for _, k in declared}
-        doc = first.doc if len(docs) == 1 else "; ".join(f"{law}: {k.doc.rstrip('.')}" for law, k in declared) + "."
-        keys[name] = replace(first, doc=doc, when={"law": tuple(law for law, _ in declared)})
+                raise ValueError(f"key {name!r}: {variant} declares it unlike {declared[0][0]}")
+        docs: dict[str, list] = {}
+        for v, k in declared:
+            docs.setdefault(k.doc.rstrip("."), []).append(v)
+        doc = first.doc if len(docs) == 1 else "; ".join(f"{', '.join(v)}: {d}" for d, v in docs.items()) + "."
+        keys[name] = replace(first, doc=doc, when={discriminator: tuple(v for v, _ in declared)})
+    return keys
+
+
+def _hardening_table() -> Table:
+    """``materials.<name>.hardening``, gathered from the laws' declarations
+    (:mod:`fenics_plast.hardening_laws`, :func:`_gathered`)."""
+    keys = {"law": Key("str", REQUIRED, "Hardening law.", choices=LAWS)}
+    keys.update(_gathered(((law.name, law.params) for law in hardening_laws().values()), "law"))
     return Table("Optional: absent = purely elastic (plasticity off). Only the keys of the chosen `law` apply. "
                  + " ".join(f"{law.name}: {law.doc}" for law in hardening_laws().values()),
                  discriminator="law", keys=keys)
+
+
+def _tools_table() -> Table:
+    """``tools.<name>``, gathered from the shapes' declarations (:mod:`fenics_plast.tool_shapes`,
+    :func:`_gathered`), and the tool's path."""
+    shapes = tool_shapes().values()
+    by_dim = {d: ", ".join(s.name for s in shapes if d in s.dims) for d in (2, 3)}
+    keys = {"shape": Key("str", REQUIRED, "; ".join(s.doc for s in shapes) + ".", choices=TOOL_SHAPES)}
+    keys.update(_gathered(((s.name, s.params) for s in shapes), "shape"))
+    keys["path"] = Key("path", OPTIONAL, "Translation: { t = [...], x = [...], y = [...] } (and z = [...] in 3-D; "
+                       "piecewise linear; a missing component stays 0); absent = fixed.", "mm")
+    return Table(f"Rigid analytic tools, one table per name, each moving along `path`. 2-D: {by_dim[2]}; "
+                 f"3-D: {by_dim[3]}.",
+                 collection=True, discriminator="shape", keys=keys)
 
 
 SCHEMA: dict[str, Table] = {
@@ -271,39 +298,7 @@ SCHEMA: dict[str, Table] = {
                          "y, z.", "m/s",
                          scale=M_S),
         }),
-    "tools": Table(
-        "Rigid analytic tools, one table per name, each moving along `path`. The body lies on the side the "
-        "normal points to (plane), outside (circle, sphere, cylinder, torus), or on `body_side` of the profile. "
-        "2-D: plane, circle, profile; 3-D: plane, sphere, cylinder, torus, profile (revolved about `axis`).",
-        collection=True, discriminator="shape", keys={
-            "shape": Key("str", REQUIRED, "plane: half-space; circle (2-D): disc (a sphere or torus in "
-                         "axisymmetry); sphere (3-D); cylinder (3-D, infinite, about `axis` through `center`); "
-                         "torus (3-D: tube of `radius` around a ring of `ring_radius` about `axis`); profile: "
-                         "chain of line segments and circular arcs (revolved about the axis in axisymmetry and "
-                         "about `axis` through `center` in 3-D).",
-                         choices=("plane", "circle", "sphere", "cylinder", "torus", "profile")),
-            "point": Key("vector", REQUIRED, "A point of the plane.", "mm", when={"shape": ("plane",)}),
-            "normal": Key("vector", REQUIRED, "Normal of the plane, pointing into the body.", "",
-                          when={"shape": ("plane",)}),
-            "center": Key("vector", OPTIONAL, "Centre at t = 0 (circle, sphere, torus), a point of the axis "
-                          "(cylinder), the origin of the profile's axial coordinate (3-D profile). Required for "
-                          "every shape but the 2-D profile, which refuses it.", "mm",
-                          when={"shape": ("circle", "sphere", "cylinder", "torus", "profile")}),
-            "axis": Key("vector", OPTIONAL, "Direction of the axis (3-D cylinder, torus, profile; required "
-                        "there, refused in 2-D).", "", when={"shape": ("cylinder", "torus", "profile")}),
-            "radius": Key("float", REQUIRED, "Radius (circle, sphere, cylinder); the tube radius (torus).", "mm",
-                          when={"shape": ("circle", "sphere", "cylinder", "torus")}, **_pos()),
-            "ring_radius": Key("float", REQUIRED, "Torus: distance from the axis to the centre of the tube.",
-                               "mm", when={"shape": ("torus",)}, **_pos()),
-            "segments": Key("segments", REQUIRED, "Profile pieces in order: { line = [[x0, y0], [x1, y1]] } or "
-                            "{ arc = [cx, cy], radius = R, from = deg, to = deg } (counter-clockwise when "
-                            "to > from). In 3-D the coordinates are (rho, a): distance from `axis` and "
-                            "coordinate along it from `center`.", "mm", when={"shape": ("profile",)}),
-            "body_side": Key("str", "left", "Side of the profile (walking along it) where the body lies.",
-                             when={"shape": ("profile",)}, choices=("left", "right")),
-            "path": Key("path", OPTIONAL, "Translation: { t = [...], x = [...], y = [...] } (and z = [...] in "
-                        "3-D; piecewise linear; a missing component stays 0); absent = fixed.", "mm"),
-        }),
+    "tools": _tools_table(),
     "contact": Table(
         "Contact pairs, one table per name: a tool against a facet group of the body (penalty, nodal rule).",
         collection=True, keys={

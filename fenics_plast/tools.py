@@ -1,7 +1,9 @@
-"""Rigid analytic tools that translate along a prescribed path.  Lengths in mm.
+"""Rigid tools that translate along a prescribed path: a shape of :mod:`fenics_plast.tool_shapes` with its
+parameters, a name and a path.  Lengths in mm.
 
 2-D tools (x = r, y = z in axisymmetry, where every tool is implicitly revolved about the axis) and
-3-D tools (x, y, z).  A tool has a ``name``, a dimension ``dim`` (2 or 3), a translation
+3-D tools (x, y, z).  A :class:`Tool` has a ``name``, a dimension ``dim`` (2 or 3), its ``shape`` (a
+:class:`~fenics_plast.tool_shapes.ToolShape`) and parameter vector ``params``, a translation
 ``path(t, use_ufl) -> (dx, dy)`` or ``(dx, dy, dz)`` [mm] (UFL expressions of the UFL scalar t when
 ``use_ufl``, floats otherwise; None = fixed; a 3-D tool reads a missing dz as 0) and
 
@@ -12,16 +14,11 @@
   2-D tool, whose third column is ignored; t a float);
 * ``translation(t, use_ufl)``: (dx, dy[, dz]), a tuple of UFL scalars or a numpy (dim,) array.
 
-2-D shapes: :class:`Plane` (half-space), :class:`Circle` (the body outside a disc: a sphere on the
-axis or a torus in axisymmetry) and :class:`Profile` (a chain of line segments and circular arcs,
-the body on one side), which covers flat dies, punches, die shoulders and rings.
-
-3-D shapes: :class:`Plane` (given 3-vectors), :class:`Sphere`, :class:`Cylinder` (infinite),
-:class:`Torus` (the body outside each) and :class:`RevolvedProfile` (a :class:`Profile` drawn in the
-(rho, a) half-plane of an axis and revolved about it: g and the (rho, a) normal are the profile's,
-the normal turned back to 3-D).  Where the normal is not defined (the centre of a sphere, the axis of
-a cylinder, torus or revolved profile) it is guarded with TINY as in the 2-D profile: a finite
-vector, not 0/0.
+Both come from the shape's one gap formula (the explicit solver compiles the same formula:
+:mod:`fenics_plast.solvers.tool_gaps`).  ``Tool("sphere", center=(0, 0, 0), radius=5.0)`` makes any
+registered shape from its scene keys; :class:`Plane`, :class:`Circle`, :class:`Profile`, :class:`Sphere`,
+:class:`Cylinder`, :class:`Torus` and :class:`RevolvedProfile` (a 3-D profile) are shorthands for the
+shipped ones.
 
 Penalty helpers: :func:`default_penalty` (eps = factor E / h) and :func:`contact_length_scale`
 (h: the mean depth of the cells along a facet group).
@@ -34,8 +31,9 @@ import numpy as np
 import ufl
 
 from fenics_plast.schema import PENALTY_FACTOR, default  # default normal penalty = PENALTY_FACTOR * E / h
-
-TINY = 1e-300          # sqrt(d.d + TINY): a point exactly on a corner gives N = 0, not 0/0
+from fenics_plast.scene_key import OPTIONAL, REQUIRED
+from fenics_plast.tool_shapes import shapes
+from fenics_plast.tool_shapes.ops import TINY
 
 
 def default_penalty(E, h, factor=PENALTY_FACTOR):
@@ -128,32 +126,27 @@ def piecewise_path(knots, dx=None, dy=None, dz=None):
     return path
 
 
-def _vector(value, what, dims=(2, 3)):
-    """``value`` as a float array of one of the lengths ``dims`` (ValueError otherwise)."""
-    a = np.asarray(value, dtype=float)
-    if a.ndim != 1 or a.shape[0] not in dims or not np.all(np.isfinite(a)):
-        raise ValueError(f"{what} must be a finite {' or '.join(map(str, dims))}-vector, got {value}")
-    return a
-
-
-def _unit(value, what, dims=(2, 3)):
-    """``value`` normalised to unit length (ValueError for a zero vector)."""
-    a = _vector(value, what, dims)
-    n = float(np.linalg.norm(a))
-    if not n > 0:
-        raise ValueError(f"{what} must be non-zero, got {value}")
-    return a / n
-
-
 class Tool:
-    """A rigid tool translating along ``path`` (see the module docstring); ``dim`` 2 or 3."""
+    """A rigid tool of the registered shape ``shape`` (:mod:`fenics_plast.tool_shapes`) with the scene key
+    values ``values`` (absent keys take their declared default), translating along ``path`` (see the
+    module docstring); ``dim`` 2 or 3 (default: :meth:`~fenics_plast.tool_shapes.ToolShape.dim_of`).
+    ValueError for an unknown shape, a missing required key or values the shape cannot take."""
 
-    name = "tool"
-    dim = 2
-
-    def __init__(self, name=None, path=None):
-        if name:
-            self.name = name
+    def __init__(self, shape, path=None, name=None, dim=None, **values):
+        if shape not in shapes():
+            raise ValueError(f"unknown tool shape {shape!r}; allowed: {sorted(shapes())}")
+        self.shape = shapes()[shape]
+        for key, spec in self.shape.params.items():
+            if values.get(key) is None:
+                if spec.default is REQUIRED:
+                    raise ValueError(f"a {shape} tool needs {key!r}")
+                values[key] = None if spec.default is OPTIONAL else spec.default
+        self.dim = self.shape.dim_of(values) if dim is None else dim
+        if self.dim not in self.shape.dims:
+            raise ValueError(f"a {shape} tool exists in {' or '.join(f'{d}-D' for d in self.shape.dims)}, "
+                             f"not in {self.dim}-D")
+        self.params = np.asarray(self.shape.pack(values, self.dim), dtype=float)     # prm of the shape
+        self.name = name or shape
         self.path = path
 
     def translation(self, t, use_ufl=True):
@@ -174,388 +167,78 @@ class Tool:
             return tuple(ufl.as_ufl(c) for c in d[:3])
         return np.array([float(c) for c in d[:3]])
 
-    def _moved(self, point, t):
-        """UFL vector: the reference ``point`` (dim,) [mm] translated to time t."""
-        d = self.translation(t)
-        return ufl.as_vector([float(point[i]) + d[i] for i in range(len(point))])
-
     def gap(self, x, t):
-        raise NotImplementedError
+        """(g, N) in UFL at the positions x (a UFL ``dim``-vector) and the UFL time t."""
+        g, N = self.shape.gap(self.params.tolist(), tuple(x[i] for i in range(self.dim)), self.translation(t))
+        return g, ufl.as_vector(N)
 
     def gap_np(self, x, t):
-        raise NotImplementedError
+        """(g (n,), N (n, dim)) in numpy at the positions x (n, dim) (or (n, 3) for a 2-D tool) and t."""
+        x = np.asarray(x, dtype=float)
+        d = self.translation(t, use_ufl=False)
+        g, N = self.shape.gap(self.params.tolist(), tuple(x[:, i] for i in range(self.dim)),
+                              tuple(float(c) for c in d))
+        return g, np.stack([np.broadcast_to(c, g.shape) for c in N], axis=1)
 
 
 class Plane(Tool):
-    """Half-space: the plane through ``point`` [mm] (+ translation) with ``normal`` (any length,
-    normalised) pointing into the body; g = (x - p) . N.  2-D with 2-vectors, 3-D with 3-vectors."""
-
-    name = "plane"
+    """Half-space through ``point`` [mm] (+ translation) with ``normal`` (any length, normalised) pointing
+    into the body (:mod:`~fenics_plast.tool_shapes.plane`); 2-D with 2-vectors, 3-D with 3-vectors."""
 
     def __init__(self, point=(0.0, 0.0), normal=(0.0, 1.0), path=None, name=None):
-        super().__init__(name, path)
-        self.point = np.asarray(point, dtype=float)
-        n = np.asarray(normal, dtype=float)
-        if n.shape not in ((2,), (3,)) or not np.linalg.norm(n) > 0:
-            raise ValueError(f"plane normal must be a non-zero 2- or 3-vector, got {normal}")
-        if self.point.shape != n.shape:
-            raise ValueError(f"plane point {point} and normal {normal} must have the same dimension")
-        self.dim = n.shape[0]
-        self.normal = n / np.linalg.norm(n)
-
-    def gap(self, x, t):
-        if self.dim == 3:
-            N = ufl.as_vector([float(c) for c in self.normal])
-            return ufl.dot(x - self._moved(self.point, t), N), N
-        d = self.translation(t)
-        p = ufl.as_vector([self.point[0] + d[0], self.point[1] + d[1]])
-        N = ufl.as_vector([float(self.normal[0]), float(self.normal[1])])
-        return ufl.dot(x - p, N), N
-
-    def gap_np(self, x, t):
-        p = self.point + self.translation(t, use_ufl=False)
-        g = (np.asarray(x)[:, :self.dim] - p) @ self.normal
-        return g, np.tile(self.normal, (len(g), 1))
+        super().__init__("plane", path, name, point=point, normal=normal)
 
 
 class Circle(Tool):
-    """Disc of ``radius`` [mm] centred at ``center`` [mm] (+ translation); the body lies outside:
-    g = |x - c| - R, N = (x - c) / |x - c|."""
-
-    name = "circle"
+    """Disc of ``radius`` [mm] centred at ``center`` [mm] (+ translation), the body outside
+    (:mod:`~fenics_plast.tool_shapes.circle`)."""
 
     def __init__(self, center, radius, path=None, name=None):
-        super().__init__(name, path)
-        self.radius = float(radius)
-        if not self.radius > 0:
-            raise ValueError(f"circle radius must be > 0, got {radius}")
-        self.center0 = np.asarray(center, dtype=float)
-
-    def center(self, t, use_ufl=True):
-        d = self.translation(t, use_ufl)
-        if use_ufl:
-            return ufl.as_vector([self.center0[0] + d[0], self.center0[1] + d[1]])
-        return self.center0 + d
-
-    def gap(self, x, t):
-        dx = x - self.center(t)
-        dist = ufl.sqrt(ufl.dot(dx, dx))
-        return dist - self.radius, dx / dist
-
-    def gap_np(self, x, t):
-        dx = np.asarray(x)[:, :2] - self.center(t, use_ufl=False)
-        dist = np.linalg.norm(dx, axis=1)
-        return dist - self.radius, dx / dist[:, None]
-
-
-# ----------------------------------------------------------------------------------------------
-# profiles: per piece, the branch "interior" (the projection falls inside the piece) or "end point"
-
-
-class _Ops:
-    """The few operations the profile formulas need, in numpy (vectorised) or UFL."""
-
-    def __init__(self, use_ufl):
-        self.u = use_ufl
-
-    def dot(self, a, b):
-        return a[0] * b[0] + a[1] * b[1]
-
-    def sqrt(self, a):
-        return ufl.sqrt(a) if self.u else np.sqrt(a)
-
-    def where(self, c, a, b):       # c a UFL condition / numpy bool array; a, b (g, N0, N1)
-        if self.u:
-            return ufl.conditional(c, ufl.as_vector(a), ufl.as_vector(b))
-        return np.where(c, np.asarray(a), np.asarray(b))
-
-    def lt(self, a, b):
-        return ufl.lt(a, b) if self.u else a < b
-
-    def ge(self, a, b):
-        return ufl.ge(a, b) if self.u else a >= b
-
-    def sign(self, a):              # +1 for a >= 0, -1 otherwise
-        return ufl.conditional(ufl.ge(a, 0.0), 1.0, -1.0) if self.u else np.where(a >= 0, 1.0, -1.0)
+        super().__init__("circle", path, name, center=center, radius=radius)
 
 
 class Profile(Tool):
-    """Chain of pieces, traversed in order, the body on ``body_side`` ("left"/"right") of the
-    direction of travel (coordinates [mm], angles [degrees]):
-
-    * ``("line", (x0, y0), (x1, y1))``;
-    * ``("arc", (cx, cy), radius, start_deg, end_deg)``: counter-clockwise if end > start,
-      clockwise otherwise (|end - start| <= 360).
-
-    Consecutive pieces must join (to 1e-9 of the profile's size); the chain is closed when the
-    last piece ends where the first starts.  g is the signed distance to the nearest point q of
-    the profile: negative when x is on the tool side of the nearest piece, N = sign (x - q)/|x - q|
-    (the piece's normal when q is inside the piece), continuous across a smooth joint.  When q is
-    a corner, the sign is the corner's (+ where the tool is convex, - where it is concave); beyond
-    an open end the sign is the side of the end's tangent line and g the distance to the end.
-
-    In UFL each piece gives (g, N) from its projection parameter clamped to the piece (inside the
-    piece, or at its start or end point), and nested ``ufl.conditional`` pick the nearest piece;
-    ``ufl.derivative`` goes through it (Newton Jacobian of the penalty residual).
-
-    Example, an axisymmetric die (opening radius 20, shoulder radius 5, top z = 0 out to r = 60)::
-
-        die = Profile([("line", (20, -30), (20, -5)),           # vertical wall, going up
-                       ("arc", (25, -5), 5, 180, 90),           # quarter-circle shoulder, clockwise
-                       ("line", (25, 0), (60, 0))])             # flat top; the blank lies above
-    """
-
-    name = "profile"
+    """2-D chain of ``("line", p0, p1)`` and ``("arc", centre, radius, start_deg, end_deg)`` pieces, the body
+    on ``body_side`` (:mod:`~fenics_plast.tool_shapes.profile`, which has an example)."""
 
     def __init__(self, segments, body_side=default("tools.*.body_side"), path=None, name=None):
-        super().__init__(name, path)
-        if body_side not in ("left", "right"):
-            raise ValueError(f"body_side must be 'left' or 'right', got {body_side!r}")
-        self.side = 1.0 if body_side == "left" else -1.0
-        self.pieces = [self._piece(k, s) for k, s in enumerate(segments)]
-        if not self.pieces:
-            raise ValueError("a profile needs at least one piece")
-        ends = np.array([[p["P"][0], p["P"][1]] for p in self.pieces]).reshape(-1, 2)
-        size = max(np.ptp(ends, axis=0).max(), max(p.get("R", 0.0) for p in self.pieces))
-        tol = 1e-9 * size
-        for k in range(len(self.pieces) - 1):
-            a, b = self.pieces[k]["P"][1], self.pieces[k + 1]["P"][0]
-            if np.linalg.norm(a - b) > tol:
-                raise ValueError(f"profile pieces {k} and {k + 1} do not join: {a.tolist()} != {b.tolist()}")
-        self.closed = len(self.pieces) > 1 and np.linalg.norm(self.pieces[-1]["P"][1]
-                                                              - self.pieces[0]["P"][0]) <= tol
-        for p in self.pieces:
-            p["sigma"] = [None, None]
-        joints = [(k, k + 1) for k in range(len(self.pieces) - 1)]
-        joints += [(len(self.pieces) - 1, 0)] if self.closed else []
-        for a, b in joints:
-            t1, t2 = self.pieces[a]["T"][1], self.pieces[b]["T"][0]
-            cross, dot = t1[0] * t2[1] - t1[1] * t2[0], float(t1 @ t2)
-            if abs(cross) <= 1e-9:
-                if dot < 0:
-                    raise ValueError(f"profile pieces {a} and {b} turn back on themselves (a cusp)")
-                continue                                            # smooth joint: own side
-            s = -self.side * math.copysign(1.0, cross)               # + at a convex tool corner
-            self.pieces[a]["sigma"][1] = self.pieces[b]["sigma"][0] = s
-
-    def _piece(self, k, s):
-        kind = s[0] if isinstance(s, (tuple, list)) and s else None
-        if kind == "line" and len(s) == 3:
-            a, b = np.asarray(s[1], dtype=float), np.asarray(s[2], dtype=float)
-            L = float(np.linalg.norm(b - a))
-            if a.shape != (2,) or b.shape != (2,) or not L > 0:
-                raise ValueError(f"profile piece {k}: a line needs two distinct 2-D points, got {s}")
-            e = (b - a) / L
-            return dict(kind="line", P=[a, b], T=[e, e], e=e, L=L,
-                        n=self.side * np.array([-e[1], e[0]]))
-        if kind == "arc" and len(s) == 5:
-            c, R, a0, a1 = np.asarray(s[1], dtype=float), float(s[2]), float(s[3]), float(s[4])
-            if c.shape != (2,) or not R > 0:
-                raise ValueError(f"profile piece {k}: an arc needs a 2-D centre and a radius > 0, got {s}")
-            if not 0 < abs(a1 - a0) <= 360:
-                raise ValueError(f"profile piece {k}: an arc must sweep 0 < |end - start| <= 360 degrees")
-            ccw = 1.0 if a1 > a0 else -1.0
-            rad = [math.radians(a) for a in (a0, a1, 0.5 * (a0 + a1))]
-            u = [np.array([math.cos(a), math.sin(a)]) for a in rad]
-            return dict(kind="arc", c=c, R=R, P=[c + R * u[0], c + R * u[1]], m=u[2],
-                        T=[ccw * np.array([-v[1], v[0]]) for v in u[:2]],
-                        cosb=math.cos(math.radians(0.5 * abs(a1 - a0))), kappa=-self.side * ccw)
-        raise ValueError(f"profile piece {k}: expected ('line', p0, p1) or "
-                         f"('arc', center, radius, start_deg, end_deg), got {s!r}")
-
-    def _end(self, op, p, e, y):
-        """(g, N0, N1) with the nearest point at the piece's end e (0 start, 1 end)."""
-        P, T = p["P"][e], p["T"][e]
-        d = [y[0] - P[0], y[1] - P[1]]
-        dist = op.sqrt(op.dot(d, d) + TINY)
-        n = self.side * np.array([-T[1], T[0]])
-        s = p["sigma"][e] if p["sigma"][e] is not None else op.sign(op.dot(d, n))
-        return (s * dist, s * d[0] / dist, s * d[1] / dist)
-
-    def _piece_gap(self, op, p, y):
-        """(g, N0, N1) of one piece at the (untranslated) positions y."""
-        start, end = self._end(op, p, 0, y), self._end(op, p, 1, y)
-        if p["kind"] == "line":
-            a, n = p["P"][0], p["n"]
-            s = op.dot([y[0] - a[0], y[1] - a[1]], p["e"])
-            inner = (op.dot([y[0] - a[0], y[1] - a[1]], n), 0.0 * s + n[0], 0.0 * s + n[1])
-            return op.where(op.lt(s, 0.0), start, op.where(op.lt(p["L"], s), end, inner))
-        c = p["c"]
-        d = [y[0] - c[0], y[1] - c[1]]
-        rho = op.sqrt(op.dot(d, d) + TINY)
-        k = p["kappa"]
-        inner = (k * (rho - p["R"]), k * d[0] / rho, k * d[1] / rho)
-        return op.where(op.ge(op.dot(d, p["m"]), p["cosb"] * rho), inner,
-                        op.where(op.lt(abs(end[0]), abs(start[0])), end, start))
-
-    def _gap(self, op, y):
-        best = self._piece_gap(op, self.pieces[0], y)
-        for p in self.pieces[1:]:
-            v = self._piece_gap(op, p, y)
-            best = op.where(op.lt(abs(v[0]), abs(best[0])), v, best)
-        return best
-
-    def gap(self, x, t):
-        d = self.translation(t)
-        v = self._gap(_Ops(True), x - ufl.as_vector([d[0], d[1]]))
-        return v[0], ufl.as_vector([v[1], v[2]])
-
-    def gap_np(self, x, t):
-        y = np.asarray(x, dtype=float)[:, :2] - self.translation(t, use_ufl=False)
-        v = self._gap(_Ops(False), y.T)
-        return v[0], np.stack([v[1], v[2]], axis=1)
-
-
-# ----------------------------------------------------------------------------------------------
-# 3-D tools
+        super().__init__("profile", path, name, dim=2, segments=segments, body_side=body_side)
 
 
 class Sphere(Tool):
-    """Ball of ``radius`` [mm] centred at ``center`` [mm] (a 3-vector, + translation); the body lies
-    outside: g = |x - c| - R, N = (x - c) / |x - c| (guarded: N = 0 at the centre itself)."""
-
-    name = "sphere"
-    dim = 3
+    """Ball of ``radius`` [mm] centred at ``center`` [mm] (+ translation), the body outside
+    (:mod:`~fenics_plast.tool_shapes.sphere`)."""
 
     def __init__(self, center, radius, path=None, name=None):
-        super().__init__(name, path)
-        self.center0 = _vector(center, "sphere center", (3,))
-        self.radius = float(radius)
-        if not self.radius > 0:
-            raise ValueError(f"sphere radius must be > 0, got {radius}")
-
-    def gap(self, x, t):
-        d = x - self._moved(self.center0, t)
-        dist = ufl.sqrt(ufl.dot(d, d) + TINY)
-        return dist - self.radius, d / dist
-
-    def gap_np(self, x, t):
-        d = np.asarray(x, dtype=float)[:, :3] - (self.center0 + self.translation(t, use_ufl=False))
-        dist = np.sqrt(np.einsum("ij,ij->i", d, d) + TINY)
-        return dist - self.radius, d / dist[:, None]
+        super().__init__("sphere", path, name, center=center, radius=radius)
 
 
-class _AxisTool(Tool):
-    """A tool symmetric about the axis through ``center`` [mm] with direction ``axis`` (normalised):
-    the axial coordinate a = (x - c) . e_a and the radial vector r = (x - c) - a e_a of a point,
-    rho = |r| (guarded: sqrt(r . r + TINY), so e_rho = r / rho = 0 on the axis)."""
-
-    dim = 3
-
-    def __init__(self, center, axis, path=None, name=None):
-        super().__init__(name, path)
-        self.center0 = _vector(center, f"{self.name} center", (3,))
-        self.axis = _unit(axis, f"{self.name} axis", (3,))
-
-    def _axial_ufl(self, x, t):
-        """UFL (a, r vector, rho) of the positions x at time t."""
-        y = x - self._moved(self.center0, t)
-        e = ufl.as_vector([float(c) for c in self.axis])
-        a = ufl.dot(y, e)
-        r = y - a * e
-        return a, r, ufl.sqrt(ufl.dot(r, r) + TINY)
-
-    def _axial_np(self, x, t):
-        """numpy (a (n,), r (n, 3), rho (n,)) of the positions x (n, 3) at time t."""
-        y = np.asarray(x, dtype=float)[:, :3] - (self.center0 + self.translation(t, use_ufl=False))
-        a = y @ self.axis
-        r = y - a[:, None] * self.axis
-        return a, r, np.sqrt(np.einsum("ij,ij->i", r, r) + TINY)
-
-
-class Cylinder(_AxisTool):
-    """Infinite circular cylinder of ``radius`` [mm] about the axis through ``center`` [mm] (+
-    translation) with direction ``axis``; the body lies outside: g = rho - R, N = e_rho."""
-
-    name = "cylinder"
+class Cylinder(Tool):
+    """Infinite cylinder of ``radius`` [mm] about the axis through ``center`` [mm] with direction ``axis``,
+    the body outside (:mod:`~fenics_plast.tool_shapes.cylinder`)."""
 
     def __init__(self, center, axis, radius, path=None, name=None):
-        super().__init__(center, axis, path=path, name=name)
-        self.radius = float(radius)
-        if not self.radius > 0:
-            raise ValueError(f"cylinder radius must be > 0, got {radius}")
-
-    def gap(self, x, t):
-        _, r, rho = self._axial_ufl(x, t)
-        return rho - self.radius, r / rho
-
-    def gap_np(self, x, t):
-        _, r, rho = self._axial_np(x, t)
-        return rho - self.radius, r / rho[:, None]
+        super().__init__("cylinder", path, name, center=center, axis=axis, radius=radius)
 
 
-class Torus(_AxisTool):
-    """Torus about the axis through ``center`` [mm] (+ translation) with direction ``axis``: a tube of
-    ``radius`` r [mm] whose centre circle has ``ring_radius`` R [mm] in the plane a = 0; the body lies
-    outside the tube.  The distance to the centre circle is d = sqrt((rho - R)^2 + a^2): g = d - r,
-    N = ((rho - R) e_rho + a e_a) / d (the guarded e_rho is 0 on the axis, where g is still exact
-    and N is a e_a / d; on the centre circle N is guarded with TINY)."""
-
-    name = "torus"
+class Torus(Tool):
+    """Tube of ``radius`` [mm] about a ring of ``ring_radius`` [mm] about the axis through ``center`` with
+    direction ``axis``, the body outside (:mod:`~fenics_plast.tool_shapes.torus`)."""
 
     def __init__(self, center, axis, ring_radius, radius, path=None, name=None):
-        super().__init__(center, axis, path=path, name=name)
-        self.ring_radius, self.radius = float(ring_radius), float(radius)
-        if not (self.ring_radius > 0 and self.radius > 0):
-            raise ValueError(f"torus ring_radius and radius must be > 0, got {ring_radius}, {radius}")
-
-    def gap(self, x, t):
-        a, r, rho = self._axial_ufl(x, t)
-        e = ufl.as_vector([float(c) for c in self.axis])
-        dist = ufl.sqrt((rho - self.ring_radius) ** 2 + a * a + TINY)
-        return dist - self.radius, ((rho - self.ring_radius) / dist) * (r / rho) + (a / dist) * e
-
-    def gap_np(self, x, t):
-        a, r, rho = self._axial_np(x, t)
-        dist = np.sqrt((rho - self.ring_radius) ** 2 + a * a + TINY)
-        return (dist - self.radius, ((rho - self.ring_radius) / dist / rho)[:, None] * r
-                + (a / dist)[:, None] * self.axis)
+        super().__init__("torus", path, name, center=center, axis=axis, ring_radius=ring_radius, radius=radius)
 
 
-class RevolvedProfile(_AxisTool):
-    """A :class:`Profile` (``segments`` and ``body_side`` as there) drawn in the (rho, a) half-plane
-    of the axis through ``center`` [mm] with direction ``axis`` (rho >= 0 the distance from the axis,
-    a the coordinate along it from ``center``) and revolved about that axis; it moves with
-    ``path`` (3-D).  g of a point is the profile's at its (rho, a) and N = N_rho e_rho + N_a e_a.
-    On the axis e_rho is 0 (guarded), so N there is N_a e_a.
-
-    Example, a flat-ended punch of radius 10 with a 2 mm edge radius, its face at a = 0, pressing
-    along -axis (the body below)::
-
-        RevolvedProfile([("line", (0, 0), (8, 0)), ("arc", (8, 2), 2, 270, 360),
-                         ("line", (10, 2), (10, 30))], center=(0, 0, 0), axis=(0, 0, 1),
-                        body_side="right")
-    """
-
-    name = "revolved_profile"
+class RevolvedProfile(Tool):
+    """A :class:`Profile` (``segments``, ``body_side``) drawn in the (rho, a) half-plane of the axis through
+    ``center`` [mm] with direction ``axis`` and revolved about it (3-D; see
+    :mod:`~fenics_plast.tool_shapes.profile`)."""
 
     def __init__(self, segments, center, axis, body_side=default("tools.*.body_side"), path=None, name=None):
-        super().__init__(center, axis, path=path, name=name)
-        self.profile = Profile(segments, body_side=body_side)
-        size = max(1.0, *(float(np.abs(q).max()) for p in self.profile.pieces for q in p["P"]))
-        for k, p in enumerate(self.profile.pieces):
-            if p["kind"] == "line":
-                lowest = min(p["P"][0][0], p["P"][1][0])
-            else:   # the arc's points: sample its sweep
-                a0, a1 = (float(v) for v in segments[k][3:5])
-                ang = np.radians(np.linspace(a0, a1, 361))
-                lowest = float((p["c"][0] + p["R"] * np.cos(ang)).min())
-            if lowest < -1e-9 * size:
-                raise ValueError(f"revolved profile piece {k} reaches rho = {lowest:.6g} < 0: draw the "
-                                 f"profile in the half-plane rho >= 0")
-
-    def gap(self, x, t):
-        a, r, rho = self._axial_ufl(x, t)
-        v = self.profile._gap(_Ops(True), [rho, a])
-        e = ufl.as_vector([float(c) for c in self.axis])
-        return v[0], v[1] * (r / rho) + v[2] * e
-
-    def gap_np(self, x, t):
-        a, r, rho = self._axial_np(x, t)
-        v = self.profile._gap(_Ops(False), [rho, a])
-        return v[0], v[1][:, None] * (r / rho[:, None]) + v[2][:, None] * self.axis
+        super().__init__("profile", path, name, dim=3, segments=segments, center=center, axis=axis,
+                         body_side=body_side)
 
 
-__all__ = ["Tool", "Plane", "Circle", "Profile", "Sphere", "Cylinder", "Torus", "RevolvedProfile",
+__all__ = ["Tool", "Plane", "Circle", "Profile", "Sphere", "Cylinder", "Torus", "RevolvedProfile", "TINY",
            "PENALTY_FACTOR", "default_penalty",
            "contact_length_scale", "piecewise_path"]

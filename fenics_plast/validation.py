@@ -15,6 +15,7 @@ from fenics_plast.errors import SceneError
 from fenics_plast.output import file_name_problem
 from fenics_plast.expressions import ExpressionError, check_times, parse_value
 from fenics_plast.quantities.registry import column_names, kind
+from fenics_plast.tool_shapes import shapes as tool_shapes
 from fenics_plast.schema import (OPTIONAL, REQUIRED, SCHEMA, SECTIONS, US, Key, Table, VALUE_DOC, number_text,
                                   component_names, is_cell_count, vector_size)
 
@@ -504,26 +505,10 @@ def _geometry_checks(t: dict[str, Any], v: _Validator, geometry: str):
                    f"on the planes of a sector model")
     for n, tool in t["tools"].items():
         d = f"tools.{n}"
-        for k in ("point", "normal", "center", "axis"):
-            vector(f"{d}.{k}", tool.get(k))
-        for k in ("normal", "axis"):
-            if tool.get(k) is not None and not any(tool.get(k)):
-                v.fail(f"{d}.{k} = {_fmt(list(tool.get(k)))} is not allowed: must not be zero")
-        shape = tool.shape
-        if shape == "circle" and three_d:
-            v.fail(f"{d}.shape = 'circle' is a 2-D tool: in 3-D use 'sphere', 'cylinder' or 'torus'")
-        if shape in ("sphere", "cylinder", "torus") and not three_d:
-            v.fail(f"{d}.shape = {shape!r} is a 3-D tool (mesh.geometry = '3d'): in 2-D use 'circle'")
-        needs = {"circle": ("center",), "sphere": ("center",), "cylinder": ("center", "axis"),
-                 "torus": ("center", "axis"), "profile": ("center", "axis") if three_d else ()}.get(shape, ())
-        for k in needs:
-            if tool.get(k) is None:
-                v.fail(f"{d}.{k} is missing: required for shape = {shape!r} {where} [{'mm' if k == 'center' else ''}]"
-                       .replace(" []", ""))
-        if shape == "profile" and not three_d:
-            for k in ("center", "axis"):
-                if tool.get(k) is not None:
-                    v.fail(f"{d}.{k} is for 3-D profiles only: a 2-D profile is drawn in (x, y) or (r, z)")
+        for k, key in tool_shapes()[tool.shape].params.items():
+            if key.type == "vector":
+                vector(f"{d}.{k}", tool.get(k))
+        _tool_shape_checks(d, tool, dim, where, v)
         if tool.path is not None and "z" in tool.path and not three_d:
             v.fail(f"{d}.path.z: a 2-D tool moves in x and y only")
     names = component_names(geometry)
@@ -544,6 +529,28 @@ def _geometry_checks(t: dict[str, Any], v: _Validator, geometry: str):
         if p.type == "shape" and three_d:
             v.fail(f"plots.{n}.type = 'shape' draws 2-D meshes only: not available {where} (open fields.xdmf "
                    f"in ParaView)")
+
+
+def _tool_shape_checks(d: str, tool, dim: int, where: str, v: _Validator):
+    """The rules of the tool ``tool``'s shape (:mod:`fenics_plast.tool_shapes`) in ``dim`` dimensions: the
+    shape exists there, the keys it requires there are given, its own check, and its parameters pack."""
+    shape = tool_shapes()[tool.shape]
+    if dim not in shape.dims:
+        other = 5 - dim                      # 2 <-> 3
+        names = [repr(s.name) for s in tool_shapes().values() if s.dims == (dim,)]
+        alike = names[0] if len(names) == 1 else f"{', '.join(names[:-1])} or {names[-1]}"
+        v.fail(f"{d}.shape = {shape.name!r} is a {other}-D tool{' (mesh.geometry = ' + repr('3d') + ')' if other == 3 else ''}"
+               f": in {dim}-D use {alike}")
+    for k in shape.required.get(dim, ()):
+        if tool.get(k) is None:
+            unit = shape.params[k].unit
+            v.fail(f"{d}.{k} is missing: required for shape = {shape.name!r} {where}" + (f" [{unit}]" if unit else ""))
+    if shape.check is not None:
+        shape.check(d, tool, dim, v.fail)
+    try:
+        shape.pack({k: tool.get(k) for k in shape.params}, dim)
+    except ValueError as e:
+        v.fail(f"{d}: {e}")
 
 
 def _kind_check(o, rule: str, d: str, ctx: dict, v: _Validator):

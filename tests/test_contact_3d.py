@@ -31,7 +31,7 @@ from fenics_plast.material import Material
 from fenics_plast.solvers import contact_kernels as ck
 from fenics_plast.solvers.explicit_contact import _tool_kind
 from fenics_plast.solvers.static import StaticSolver
-from fenics_plast.tools import Cylinder, Plane, RevolvedProfile, Sphere, Torus, piecewise_path
+from fenics_plast.tools import Circle, Cylinder, Plane, RevolvedProfile, Sphere, Torus, piecewise_path
 
 E, NU = 1000.0, 0.3            # MPa (static blocks)
 EPS = 1e4                      # normal and tangential penalty [N/mm^3]
@@ -190,23 +190,26 @@ def _kernel(u, du, X, tools, kinds, params, gN, laws, trans, mu=0.3, steps=1):
     hist = [np.full((n, d), 0.3), np.tile(np.eye(d)[-1], (n, 1)), np.full(n, 50.0), np.zeros(n), np.zeros(n)]
     fc, acc, pen, fcon = np.zeros((n, d)), np.zeros((npair, 2 + d)), np.zeros(npair), np.zeros(d * n)
     for _ in range(steps):
-        ck.contact_forces(u, du, 1e-3, X, dofs, cpair, np.full(n, 0.7), np.asarray(kinds, np.int64),
-                          np.asarray(params, dtype=float), np.full(npair, 1e3), np.full(npair, 2e3),
-                          np.full(npair, mu), np.asarray(laws, np.int64), gN, *hist, fc, acc, pen,
-                          trans[0], trans[1], fcon)
+        c = ck.ContactArrays(X, dofs, cpair, np.full(n, 0.7), np.asarray(kinds, np.int64),
+                             np.asarray(params, dtype=float), np.full(npair, 1e3), np.full(npair, 2e3),
+                             np.full(npair, mu), np.asarray(laws, np.int64), gN, *hist, fc, acc, pen)
+        ck.contact_forces(u, du, 1e-3, c, trans[0], trans[1], fcon)
     return fcon, hist, fc, acc, pen
 
 
 @pytest.mark.parametrize("law", [ck.COULOMB, ck.QUASI_COULOMB])
 def test_compiled_3d_gaps_match_gap_np(law):
-    """PLANE, SPHERE, CYLINDER, TORUS compiled == GENERIC with the tools' gap_np (forces, history,
-    energies, impulses)."""
+    """Plane, sphere, cylinder, torus and revolved profile compiled == GENERIC with the tools' gap_np
+    (forces, history, energies, impulses)."""
     rng = np.random.default_rng(1)
     path = piecewise_path([0.0, 1.0], [0.0, 0.5], [0.0, -1.0], [0.0, 0.3])
     tools = [Plane((0.1, -0.2, 0.3), (0.3, 1.0, -0.2), path=path),
              Sphere((0.2, -1.0, 0.1), 0.9, path=path),
              Cylinder((0.0, 0.1, -0.2), (1.0, 0.3, 0.2), 0.8, path=path),
-             Torus((0.1, 0.0, 0.0), (0.2, 0.1, 1.0), 0.9, 0.4, path=path)]
+             Torus((0.1, 0.0, 0.0), (0.2, 0.1, 1.0), 0.9, 0.4, path=path),
+             RevolvedProfile([("line", (0.0, 0.2), (0.5, 0.2)), ("arc", (0.5, 0.0), 0.2, 90, 0),
+                              ("line", (0.7, 0.0), (0.7, -1.5))], (0.0, 0.1, 0.0), (0.1, 0.2, 1.0),
+                             body_side="left", path=path)]
     n = 400
     X = np.ascontiguousarray(rng.uniform(-1.2, 1.2, (n, 3)))
     u = rng.uniform(-0.1, 0.1, 3 * n)
@@ -214,7 +217,7 @@ def test_compiled_3d_gaps_match_gap_np(law):
     t0, t1 = 0.1, 0.2
     trans = np.array([[tool.translation(t, use_ufl=False) for tool in tools] for t in (t0, t1)])
     kp = [_tool_kind(tool) for tool in tools]
-    assert [k for k, _ in kp] == [ck.PLANE, ck.SPHERE, ck.CYLINDER, ck.TORUS]
+    assert [k for k, _ in kp] == [tool.shape.code for tool in tools]
     x = X + u.reshape(-1, 3)
     cpair = np.arange(n) % len(tools)
     gN = np.zeros((n, 4))
@@ -223,8 +226,10 @@ def test_compiled_3d_gaps_match_gap_np(law):
         gN[cpair == i] = np.column_stack([g, N])
         assert (g < 0).sum() > 5 and (g > 0).sum() > 5
     laws = [law] * len(tools)
-    compiled = _kernel(u, du, X, tools, [k for k, _ in kp], [p for _, p in kp], np.zeros((n, 4)), laws, trans)
-    generic = _kernel(u, du, X, tools, [ck.GENERIC] * 4, np.zeros((4, 8)), gN, laws, trans)
+    width = max(p.size for _, p in kp)
+    params = [np.pad(p, (0, width - p.size)) for _, p in kp]
+    compiled = _kernel(u, du, X, tools, [k for k, _ in kp], params, np.zeros((n, 4)), laws, trans)
+    generic = _kernel(u, du, X, tools, [ck.GENERIC] * len(tools), np.zeros((len(tools), 8)), gN, laws, trans)
     for a, b in zip(compiled, generic):
         for aa, bb in zip(a if isinstance(a, list) else [a], b if isinstance(b, list) else [b]):
             np.testing.assert_allclose(aa, bb, rtol=1e-12, atol=1e-12 * max(np.abs(bb).max(), 1.0))
@@ -247,13 +252,13 @@ def test_3d_kernel_in_the_xy_plane_equals_the_2d_kernel():
     n = 60
     X2 = rng.uniform(-1.0, 1.0, (n, 2))
     X3 = np.column_stack([X2, np.zeros(n)])
-    p2 = [np.array([0.1, -0.2, *Plane((0, 0), (0.3, 1.0)).normal, 0, 0, 0, 0]),
-          np.array([0.2, -1.0, 0.9, 0, 0, 0, 0, 0])]
-    p3 = [np.array([0.1, -0.2, 0.0, *Plane((0, 0, 0), (0.3, 1.0, 0.0)).normal, 0, 0]),
-          np.array([0.2, -1.0, 0.0, 0.0, 0.0, 1.0, 0.9, 0])]              # cylinder about z == circle
+    two_d = [Plane((0.1, -0.2), (0.3, 1.0)), Circle((0.2, -1.0), 0.9)]
+    three_d = [Plane((0.1, -0.2, 0.0), (0.3, 1.0, 0.0)), Cylinder((0.2, -1.0, 0.0), (0, 0, 1), 0.9)]  # == circle
     for law in (ck.COULOMB, ck.QUASI_COULOMB):
         out = []
-        for X, kinds, params, d in ((X2, [ck.PLANE, ck.CIRCLE], p2, 2), (X3, [ck.PLANE, ck.CYLINDER], p3, 3)):
+        for X, tools, d in ((X2, two_d, 2), (X3, three_d, 3)):
+            kinds = [tool.shape.code for tool in tools]
+            params = [np.pad(tool.params, (0, 8 - tool.params.size)) for tool in tools]
             r = np.random.default_rng(7)
             dofs = np.arange(d * n, dtype=np.int64).reshape(n, d)
             cpair = (np.arange(n) % 2).astype(np.int64)
@@ -270,10 +275,10 @@ def test_3d_kernel_in_the_xy_plane_equals_the_2d_kernel():
                 tr = np.zeros((2, 2, d))
                 tr[1, :, :2] = r.uniform(-0.01, 0.01, (2, 2))
                 fcon = np.zeros(d * n)
-                ck.contact_forces(u, du, 1e-3, np.ascontiguousarray(X), dofs, cpair, np.full(n, 0.7),
-                                  np.array(kinds, np.int64), np.array(params), np.array([1e3, 2e3]),
-                                  np.array([2e3, 1e3]), np.array([0.3, 0.2]), np.array([law, law], np.int64),
-                                  *st, tr[0], tr[1], fcon)
+                c = ck.ContactArrays(np.ascontiguousarray(X), dofs, cpair, np.full(n, 0.7),
+                                     np.array(kinds, np.int64), np.array(params), np.array([1e3, 2e3]),
+                                     np.array([2e3, 1e3]), np.array([0.3, 0.2]), np.array([law, law], np.int64), *st)
+                ck.contact_forces(u, du, 1e-3, c, tr[0], tr[1], fcon)
                 ix = np.arange(n)[:, None] * d + np.arange(2)
                 rows.append(np.concatenate([fcon[ix].ravel(), st[1][:, :2].ravel(), st[6][:, :2].ravel(),
                                             st[3], np.abs(st[4]), st[5], st[7][:, :4].ravel(), st[8]]))
@@ -335,14 +340,18 @@ def test_explicit_block_slides_on_plane():
 
 
 def test_explicit_generic_tool_equals_compiled_plane():
-    """The same drop against a RevolvedProfile disc (a tool without a compiled gap: gap_np every
+    """The same drop against a RevolvedProfile disc whose gap_np is its own (a generic tool: gap_np every
     step, step by step) and against the equal Plane (compiled, in chunks): same motion and contact
     to round-off."""
     from fenics_plast.solvers.explicit import ExplicitDynamics
+
+    class NumpyDisc(RevolvedProfile):
+        def gap_np(self, x, t):
+            return super().gap_np(x, t)
     E_s, rho = 200e3, 7.8e-9
     out = []
     for tool in (Plane((0.0, 0.0, -1e-7), (0.0, 0.0, 1.0)),
-                 RevolvedProfile([("line", (0.0, 0.0), (10.0, 0.0))], (1.0, 1.0, -1e-7), (0.0, 0.0, 1.0))):
+                 NumpyDisc([("line", (0.0, 0.0), (10.0, 0.0))], (1.0, 1.0, -1e-7), (0.0, 0.0, 1.0))):
         msh, ft = box((2.0, 2.0, 2.0), (2, 2, 2), comm=MPI.COMM_SELF)
         s = ExplicitDynamics(msh, Kinematics(msh, "3d"), Material(E_s, 0.3, None), rho, [], log=lambda m: None)
         s.set_velocity((3e3, -2e3, -1e3))

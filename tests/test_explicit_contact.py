@@ -30,7 +30,7 @@ from fenics_plast.material import Hardening, Material  # noqa: E402
 from fenics_plast.meshing import bar_mesh  # noqa: E402
 from fenics_plast.solvers import contact_kernels as ck  # noqa: E402
 from fenics_plast.solvers.explicit import ExplicitDynamics  # noqa: E402
-from fenics_plast.tools import Circle, Plane, piecewise_path  # noqa: E402
+from fenics_plast.tools import Circle, Plane, Profile, piecewise_path  # noqa: E402
 
 E, RHO, R, L = 200e3, 7.8e-9, 2.0, 10.0        # MPa, tonne/mm^3, mm, mm
 SERIAL = MPI.COMM_WORLD.size == 1
@@ -80,7 +80,7 @@ class PythonGap:
 
 
 def test_compiled_gaps_match_gap_np():
-    """contact_forces with the compiled plane / circle gap == with the gaps of gap_np."""
+    """contact_forces with the compiled gap formulas (plane, circle, profile) == with the gaps of gap_np."""
     rng = np.random.default_rng(1)
     n = 40
     X = np.ascontiguousarray(rng.uniform(-1.0, 1.0, (n, 2)))
@@ -88,20 +88,22 @@ def test_compiled_gaps_match_gap_np():
     du = rng.uniform(-0.01, 0.01, 2 * n)
     dofs = np.arange(2 * n, dtype=np.int64).reshape(n, 2)
     tools = [Plane((0.1, -0.2), (0.3, 1.0), path=lambda t, use_ufl: (0.5 * t, -t)),
-             Circle((0.2, -1.0), 0.9, path=lambda t, use_ufl: (t, 2 * t))]
-    for tool, kind, params in ((tools[0], ck.PLANE, [0.1, -0.2, *tools[0].normal]),
-                               (tools[1], ck.CIRCLE, [0.2, -1.0, 0.9, 0.0])):
+             Circle((0.2, -1.0), 0.9, path=lambda t, use_ufl: (t, 2 * t)),
+             Profile([("line", (-1.0, -0.5), (0.0, -0.5)), ("arc", (0.0, -0.8), 0.3, 90, 0),
+                      ("line", (0.3, -0.8), (0.3, -2.0))], path=lambda t, use_ufl: (t, 0.5 * t))]
+    for tool in tools:
         t0, t1 = 0.1, 0.2
         tr = np.array([[tool.translation(t0, use_ufl=False)], [tool.translation(t1, use_ufl=False)]])
         g, N = tool.gap_np(X + u.reshape(-1, 2), t1)
         assert (g < 0).sum() > 5 and (g > 0).sum() > 5
         out = []
-        for k, gN in ((kind, np.zeros((n, 3))), (ck.GENERIC, np.column_stack([g, N]))):
+        for k, gN in ((tool.shape.code, np.zeros((n, 3))), (ck.GENERIC, np.column_stack([g, N]))):
             hist = [np.full((n, 2), 0.3), np.tile([0.0, 1.0], (n, 1)), np.full(n, 50.0), np.zeros(n), np.zeros(n)]
             fc, acc, pen, fcon = np.zeros((n, 2)), np.zeros((1, 4)), np.zeros(1), np.zeros(2 * n)
-            ck.contact_forces(u, du, 1e-3, X, dofs, np.zeros(n, np.int64), np.full(n, 0.7), np.array([k]),
-                              np.array([params], dtype=float), np.array([1e3]), np.array([2e3]), np.array([0.3]),
-                              np.array([ck.COULOMB]), gN, *hist, fc, acc, pen, tr[0], tr[1], fcon)
+            c = ck.ContactArrays(X, dofs, np.zeros(n, np.int64), np.full(n, 0.7), np.array([k]), np.array([tool.params]),
+                                 np.array([1e3]), np.array([2e3]), np.array([0.3]), np.array([ck.COULOMB]), gN, *hist,
+                                 fc, acc, pen)
+            ck.contact_forces(u, du, 1e-3, c, tr[0], tr[1], fcon)
             out.append((fcon.copy(), acc.copy(), pen.copy()))
         for a, b in zip(*out):
             np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())

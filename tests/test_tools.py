@@ -107,7 +107,7 @@ def test_profile_corners():
 def test_closed_profiles():
     square = Profile([("line", (0, 0), (1, 0)), ("line", (1, 0), (1, 1)), ("line", (1, 1), (0, 1)),
                       ("line", (0, 1), (0, 0))], body_side="right")     # counter-clockwise, body outside
-    assert square.closed
+    # (-1, -1) faces the corner that closes the chain (last piece to first): convex, g > 0
     check(square, [[0.5, 0.4], [2, 2], [-1, -1], [0.5, -1]],
           [-0.4, math.sqrt(2), math.sqrt(2), 1], [[0, -1], [S2, S2], [-S2, -S2], [0, -1]])
     # a full counter-clockwise circle with the body outside is the Circle; inside: a ring die

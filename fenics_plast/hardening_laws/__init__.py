@@ -15,11 +15,10 @@ schema's ``hardening`` table and its ``law`` choices follow, and so does the com
 from __future__ import annotations
 
 import functools
-import importlib
-import pkgutil
 from dataclasses import dataclass
 from typing import Callable
 
+from fenics_plast.declarations import gathered
 from fenics_plast.scene_key import OPTIONAL, REQUIRED, Key
 
 __all__ = ["HardeningLaw", "laws"]
@@ -63,16 +62,7 @@ class HardeningLaw:
 
 @functools.lru_cache(maxsize=None)
 def _registry() -> tuple[HardeningLaw, ...]:
-    found = []
-    for info in pkgutil.iter_modules(__path__):
-        law = getattr(importlib.import_module(f"{__name__}.{info.name}"), "LAW", None)
-        if isinstance(law, HardeningLaw):
-            found.append(law)
-    found.sort(key=lambda law: law.code)
-    for a, b in zip(found, found[1:]):
-        if a.code == b.code:
-            raise RuntimeError(f"hardening laws {a.name!r} and {b.name!r} share the code {a.code}")
-    return tuple(found)
+    return gathered(__name__, __path__, "LAW", HardeningLaw, "hardening laws")
 
 
 def laws() -> dict[str, HardeningLaw]:

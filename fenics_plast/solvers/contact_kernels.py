@@ -1,9 +1,9 @@
 r"""Compiled penalty contact of body nodes against rigid tools, Coulomb friction as elastoplastic slip.
 
 The kernels of :mod:`fenics_plast.solvers.explicit_contact` (which builds their arrays: nodes, tributary
-areas, tools' kinds and parameters, penalties, the nodal history): :func:`contact_forces` (2-D;
-it hands 3-D data to :func:`contact_forces_3d`) and the compiled gaps of the 3-D tools
-(:func:`_tool_gap_3d`). Called every step by the explicit solver's integrator
+areas, tools' shape codes and parameters, penalties, the nodal history): :func:`contact_forces` (2-D;
+it hands 3-D data to :func:`contact_forces_3d`). The gaps are the tool shapes' own formulas, compiled
+(:mod:`fenics_plast.solvers.tool_gaps`). Called every step by the explicit solver's integrator
 (:mod:`fenics_plast.solvers.integrator`). Units mm, N, MPa, s.
 
 Per pair (trapezoidal over each step, du the node's displacement increment and dd the tool's
@@ -11,33 +11,57 @@ translation over the step): energy taken up by the contact (penalty energy + fri
 E_c += -(f_c,n + f_c,n+1)/2 . (du - dd), and the work of the moving tool
 W_tool += (F_c,n + F_c,n+1)/2 . dd.
 
-Codes: tool kinds :data:`PLANE`, :data:`CIRCLE` (2-D), :data:`SPHERE`, :data:`CYLINDER`,
-:data:`TORUS` (3-D), :data:`GENERIC` (gap and normal given, from the tool's ``gap_np``); friction
-laws :data:`COULOMB`, :data:`QUASI_COULOMB`.
+Codes: a tool's kind is its shape's code (:mod:`fenics_plast.tool_shapes`) or :data:`GENERIC` (gap and
+normal given, from the tool's ``gap_np``); friction laws :data:`COULOMB`, :data:`QUASI_COULOMB`.
 """
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numba
 import numpy as np
 
-from fenics_plast.tools import TINY
+from fenics_plast.solvers.tool_gaps import FLAGS, gap_2d, gap_3d
 
-_njit = numba.njit(cache=True, nogil=True, fastmath={"contract", "arcp", "nsz"})
+_njit = numba.njit(cache=True, **FLAGS)
 
-PLANE, CIRCLE, GENERIC = 0, 1, -1
-SPHERE, CYLINDER, TORUS = 2, 3, 4           # 3-D kinds (PLANE and GENERIC serve both dimensions)
+GENERIC = -1                    # a tool whose gap and normal come from its gap_np (any other kind: a shape code)
 COULOMB, QUASI_COULOMB = 0, 1
 
 
+class ContactArrays(NamedTuple):
+    """The arrays of :func:`contact_forces`: the nodes of all pairs concatenated (nc rows), the pairs'
+    data (npairs rows), the nodal history and the accumulators (shapes and units there)."""
+    X: np.ndarray           # (nc, dim) reference positions [mm]
+    dofs: np.ndarray        # (nc, dim) the nodes' owned dofs
+    pair: np.ndarray        # (nc,) pair index of each node
+    area: np.ndarray        # (nc,) tributary areas [mm^2]
+    kind: np.ndarray        # (npairs,) tool shape codes or GENERIC
+    params: np.ndarray      # (npairs, m) tool parameter vectors
+    eps: np.ndarray         # (npairs,) normal penalties [N/mm^3]
+    eps_t: np.ndarray       # (npairs,) tangential penalties [N/mm^3]
+    mu: np.ndarray          # (npairs,) friction coefficients
+    law: np.ndarray         # (npairs,) COULOMB | QUASI_COULOMB
+    gN: np.ndarray          # (nc, 1 + dim) given gaps and normals of GENERIC tools
+    t_hist: np.ndarray      # (nc, dim) tangential tractions [MPa]
+    N_hist: np.ndarray      # (nc, dim) normals
+    p_hist: np.ndarray      # (nc,) pressures [MPa]
+    t_scal: np.ndarray      # (nc,) tangential traction, signed (2-D) or its norm (3-D) [MPa]
+    slip: np.ndarray        # (nc,) 1 where in contact and slipping
+    fc: np.ndarray          # (nc, dim) nodal contact forces [N]
+    acc: np.ndarray         # (npairs, 2 + dim) contact energy, tool work [N mm], impulse [N s]
+    pen: np.ndarray         # (npairs,) the run's largest penetration [mm]
+
+
 @_njit
-def contact_forces(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, mu, law, gN,
-                   t_hist, N_hist, p_hist, t_scal, slip, fc, acc, pen, trans_old, trans_new, fcon):
-    """Penalty contact of nodes against rigid tools, Coulomb friction as elastoplastic slip.
+def contact_forces(u, du, dt, c, trans_old, trans_new, fcon):
+    """Penalty contact of nodes against rigid tools, Coulomb friction as elastoplastic slip; c the
+    :class:`ContactArrays`, u, du (owned dofs) the displacement and its increment over the step [mm].
 
     Nodes k (all pairs concatenated): cdofs (nc, 2) their owned dofs, X (nc, 2) reference position
     [mm], cpair (nc,) pair index, area (nc,) tributary area int N_k w dA0 [mm^2]. Per pair p:
-    kind PLANE (params: point x, y, normal x, y), CIRCLE (params: centre x, y, radius, -) or
-    GENERIC (gap and normal given in gN (nc, 3) = (g, N_x, N_y), computed by the tool's gap_np);
+    kind the tool's shape code with its parameter vector params[p] (:func:`~fenics_plast.solvers.tool_gaps.gap_2d`)
+    or GENERIC (gap and normal given in gN (nc, 3) = (g, N_x, N_y), computed by the tool's gap_np);
     eps, eps_t normal and tangential penalties [N/mm^3], mu, law COULOMB | QUASI_COULOMB;
     trans_old, trans_new (npairs, 2) tool translation at t_n, t_{n+1} [mm].
 
@@ -54,10 +78,12 @@ def contact_forces(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, m
 
     3-D (X (nc, 3)): :func:`contact_forces_3d`, the same law with vectors (shapes there).
     """
-    if X.shape[1] == 3:
-        contact_forces_3d(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, mu, law, gN,
-                          t_hist, N_hist, p_hist, t_scal, slip, fc, acc, pen, trans_old, trans_new, fcon)
+    if c.X.shape[1] == 3:
+        contact_forces_3d(u, du, dt, c, trans_old, trans_new, fcon)
         return
+    X, cdofs, cpair, area, kind, params, gN = c.X, c.dofs, c.pair, c.area, c.kind, c.params, c.gN
+    eps, eps_t, mu, law, acc, pen = c.eps, c.eps_t, c.mu, c.law, c.acc, c.pen
+    t_hist, N_hist, p_hist, t_scal, slip, fc = c.t_hist, c.N_hist, c.p_hist, c.t_scal, c.slip, c.fc
     nc = X.shape[0]
     for k in range(nc):
         fcon[cdofs[k, 0]] = 0.0
@@ -71,21 +97,14 @@ def contact_forces(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, m
         ddx = trans_new[pr, 0] - trans_old[pr, 0]
         ddy = trans_new[pr, 1] - trans_old[pr, 1]
         kd = kind[pr]
-        if kd == PLANE:
-            nx = params[pr, 2]
-            ny = params[pr, 3]
-            g = (x - (params[pr, 0] + trans_new[pr, 0])) * nx + (y - (params[pr, 1] + trans_new[pr, 1])) * ny
-        elif kd == CIRCLE:
-            rx = x - (params[pr, 0] + trans_new[pr, 0])
-            ry = y - (params[pr, 1] + trans_new[pr, 1])
-            dist = np.sqrt(rx * rx + ry * ry)
-            g = dist - params[pr, 2]
-            nx = rx / dist
-            ny = ry / dist
-        else:
+        if kd == GENERIC:
             g = gN[k, 0]
             nx = gN[k, 1]
             ny = gN[k, 2]
+        else:
+            g, n = gap_2d(kd, params[pr], (x, y), (trans_new[pr, 0], trans_new[pr, 1]))
+            nx = n[0]
+            ny = n[1]
         p = eps[pr] * (-g) if g < 0.0 else 0.0
         sx = du[ix] - ddx
         sy = du[iy] - ddy
@@ -129,53 +148,11 @@ def contact_forces(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, m
 
 
 @_njit
-def _tool_gap_3d(kd, prm, tr, x, N):
-    """Gap [mm] of the point x (3,) to a compiled 3-D tool of kind kd, parameters prm (8,) and
-    translation tr (3,) [mm]; its unit normal (tool into body) into N (3,).
-
-    PLANE (point (3), normal (3)); SPHERE (centre (3), radius); CYLINDER (point on the axis (3),
-    unit axis (3), radius); TORUS (centre (3), unit axis (3), ring radius, tube radius).  Normals
-    are guarded with TINY where they are undefined (sphere centre, cylinder or torus axis)."""
-    y0 = x[0] - (prm[0] + tr[0])
-    y1 = x[1] - (prm[1] + tr[1])
-    y2 = x[2] - (prm[2] + tr[2])
-    if kd == PLANE:
-        N[0] = prm[3]
-        N[1] = prm[4]
-        N[2] = prm[5]
-        return y0 * N[0] + y1 * N[1] + y2 * N[2]
-    if kd == SPHERE:
-        dist = np.sqrt(y0 * y0 + y1 * y1 + y2 * y2 + TINY)
-        N[0] = y0 / dist
-        N[1] = y1 / dist
-        N[2] = y2 / dist
-        return dist - prm[3]
-    a = y0 * prm[3] + y1 * prm[4] + y2 * prm[5]            # axial coordinate
-    r0 = y0 - a * prm[3]
-    r1 = y1 - a * prm[4]
-    r2 = y2 - a * prm[5]
-    rho = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2 + TINY)
-    if kd == CYLINDER:
-        N[0] = r0 / rho
-        N[1] = r1 / rho
-        N[2] = r2 / rho
-        return rho - prm[6]
-    # TORUS: distance to the centre circle of radius prm[6] in the plane a = 0
-    dr = rho - prm[6]
-    dist = np.sqrt(dr * dr + a * a + TINY)
-    N[0] = dr / dist * r0 / rho + a / dist * prm[3]
-    N[1] = dr / dist * r1 / rho + a / dist * prm[4]
-    N[2] = dr / dist * r2 / rho + a / dist * prm[5]
-    return dist - prm[7]
-
-
-@_njit
-def contact_forces_3d(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t, mu, law, gN,
-                      t_hist, N_hist, p_hist, t_scal, slip, fc, acc, pen, trans_old, trans_new, fcon):
+def contact_forces_3d(u, du, dt, c, trans_old, trans_new, fcon):
     """:func:`contact_forces` in 3-D: the tangential traction is a vector of the tangent plane.
 
-    Shapes: X (nc, 3) [mm], cdofs (nc, 3), params (npairs, 8) (see :func:`_tool_gap_3d`; kinds
-    PLANE, SPHERE, CYLINDER, TORUS, or GENERIC with gN (nc, 4) = (g, N) from the tool's gap_np),
+    Shapes: X (nc, 3) [mm], cdofs (nc, 3), params (npairs, m) (:func:`~fenics_plast.solvers.tool_gaps.gap_3d`;
+    or kind GENERIC with gN (nc, 4) = (g, N) from the tool's gap_np),
     trans_old, trans_new (npairs, 3) [mm], t_hist (nc, 3) [MPa], N_hist (nc, 3), fc (nc, 3) [N],
     acc (npairs, 5) += (E_c, tool work, impulse x, y, z) [N mm, N mm, N s x 3].
 
@@ -185,23 +162,26 @@ def contact_forces_3d(u, du, dt, X, cdofs, cpair, area, kind, params, eps, eps_t
     bound t_tr / |t_tr| (return map on the norm; 2-D: T T^T = P_T, the same law).  t_hist gets the
     vector t, t_scal its norm |t| [MPa]; slip, fc, fcon, N_hist, p_hist, pen as in 2-D.
     """
+    X, cdofs, cpair, area, kind, params, gN = c.X, c.dofs, c.pair, c.area, c.kind, c.params, c.gN
+    eps, eps_t, mu, law, acc, pen = c.eps, c.eps_t, c.mu, c.law, c.acc, c.pen
+    t_hist, N_hist, p_hist, t_scal, slip, fc = c.t_hist, c.N_hist, c.p_hist, c.t_scal, c.slip, c.fc
     nc = X.shape[0]
-    x = np.empty(3)
     N = np.empty(3)
     for k in range(nc):
         for j in range(3):
             fcon[cdofs[k, j]] = 0.0
     for k in range(nc):
         pr = cpair[k]
-        for j in range(3):
-            x[j] = X[k, j] + u[cdofs[k, j]]
         kd = kind[pr]
         if kd == GENERIC:
             g = gN[k, 0]
             for j in range(3):
                 N[j] = gN[k, 1 + j]
         else:
-            g = _tool_gap_3d(kd, params[pr], trans_new[pr], x, N)
+            x = (X[k, 0] + u[cdofs[k, 0]], X[k, 1] + u[cdofs[k, 1]], X[k, 2] + u[cdofs[k, 2]])
+            g, n = gap_3d(kd, params[pr], x, (trans_new[pr, 0], trans_new[pr, 1], trans_new[pr, 2]))
+            for j in range(3):
+                N[j] = n[j]
         p = eps[pr] * (-g) if g < 0.0 else 0.0
         s0 = du[cdofs[k, 0]] - (trans_new[pr, 0] - trans_old[pr, 0])
         s1 = du[cdofs[k, 1]] - (trans_new[pr, 1] - trans_old[pr, 1])

@@ -29,19 +29,15 @@ load factor is the time t [s] here). Units mm, N, MPa, s.
   stored + frictional dissipation, >= 0 for a fixed tool) and the tool's work
   W_tool = int F_c . dd (goes into the external work); impulse int F_c dt [N s].
 
-The forces are computed by :func:`fenics_plast.solvers.contact_kernels.contact_forces`, for
-:class:`~fenics_plast.tools.Plane` and :class:`~fenics_plast.tools.Circle` tools (and subclasses
-that keep their gap) with the gap
-in compiled code, so that serial fused runs keep taking several steps per compiled call; other
-tools (e.g. :class:`~fenics_plast.tools.Profile`) have their ``gap_np`` called every step, which
-makes the serial run go step by step.
+The forces are computed by :func:`fenics_plast.solvers.contact_kernels.contact_forces`, for every
+:class:`~fenics_plast.tools.Tool` (any registered shape, :mod:`fenics_plast.tool_shapes`) with the
+shape's gap formula compiled (:mod:`fenics_plast.solvers.tool_gaps`), so that serial fused runs keep
+taking several steps per compiled call; another object with a ``gap_np`` (or a Tool subclass that
+overrides it) has its ``gap_np`` called every step, which makes the serial run go step by step.
 
 3-D bodies (3 dofs per node, 3-D tools): the same, with the tangential traction a vector of the
 tangent plane returned to |t| <= mu p on its norm
-(:func:`~fenics_plast.solvers.contact_kernels.contact_forces_3d`); compiled gaps for
-:class:`~fenics_plast.tools.Plane` (3-D), :class:`~fenics_plast.tools.Sphere`,
-:class:`~fenics_plast.tools.Cylinder` and :class:`~fenics_plast.tools.Torus`,
-:class:`~fenics_plast.tools.RevolvedProfile` through its ``gap_np``. Arrays per node have ``dim``
+(:func:`~fenics_plast.solvers.contact_kernels.contact_forces_3d`). Arrays per node have ``dim``
 (2 or 3) columns: positions, dofs, t_hist, N_hist, fc; the impulse and the tool translations
 ``dim`` components; :meth:`ExplicitContactPair.tangential_force` is the vector sum A_i t_i in 3-D
 and t_scal the norm |t| of each node's tangential traction.
@@ -58,12 +54,10 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from fenics_plast.contact import LAWS
-from fenics_plast.tools import Circle, Cylinder, Plane, Sphere, Torus
+from fenics_plast.tools import Tool
 from fenics_plast.solvers import contact_kernels as ck
 
 _LAW_CODE = {"coulomb": ck.COULOMB, "quasi-coulomb": ck.QUASI_COULOMB}
-#: columns of a tool's parameters in the compiled gap (the 3-D torus needs 8)
-_N_PARAMS = 8
 
 
 def _hist_cols(dim):
@@ -73,29 +67,11 @@ def _hist_cols(dim):
 
 
 def _tool_kind(tool):
-    """(kind, params (8,)) of the compiled gap for a :class:`~fenics_plast.tools.Plane` or
-    :class:`~fenics_plast.tools.Circle` (2-D), a Plane, :class:`~fenics_plast.tools.Sphere`,
-    :class:`~fenics_plast.tools.Cylinder` or :class:`~fenics_plast.tools.Torus` (3-D), or a subclass
-    of one that keeps its gap; (GENERIC, zeros) for any other tool."""
-    cls = type(tool)
-    params = np.zeros(_N_PARAMS)
-    if isinstance(tool, Plane) and cls.gap_np is Plane.gap_np:
-        d = tool.dim
-        params[:2 * d] = np.concatenate([tool.point, tool.normal])
-        return ck.PLANE, params
-    if isinstance(tool, Circle) and cls.gap_np is Circle.gap_np and cls.center is Circle.center:
-        params[:3] = [tool.center0[0], tool.center0[1], tool.radius]
-        return ck.CIRCLE, params
-    if isinstance(tool, Sphere) and cls.gap_np is Sphere.gap_np:
-        params[:4] = [*tool.center0, tool.radius]
-        return ck.SPHERE, params
-    if isinstance(tool, Cylinder) and cls.gap_np is Cylinder.gap_np:
-        params[:7] = [*tool.center0, *tool.axis, tool.radius]
-        return ck.CYLINDER, params
-    if isinstance(tool, Torus) and cls.gap_np is Torus.gap_np:
-        params[:8] = [*tool.center0, *tool.axis, tool.ring_radius, tool.radius]
-        return ck.TORUS, params
-    return ck.GENERIC, params
+    """(kind, params) of the compiled gap: a :class:`~fenics_plast.tools.Tool`'s shape code and parameter
+    vector, or (GENERIC, empty) for any other tool, or a Tool subclass with a gap_np of its own."""
+    if isinstance(tool, Tool) and type(tool).gap_np is Tool.gap_np:
+        return tool.shape.code, np.asarray(tool.params, dtype=float)
+    return ck.GENERIC, np.zeros(0)
 
 
 class ExplicitContactPair:
@@ -157,8 +133,7 @@ class ExplicitContactPair:
 
     @property
     def compiled(self):
-        """True if the gap is computed in compiled code (Plane, Circle; 3-D: Plane, Sphere, Cylinder,
-        Torus)."""
+        """True if the gap is computed in compiled code (every :class:`~fenics_plast.tools.Tool`)."""
         return self.kind != ck.GENERIC
 
     def translation(self, t):
@@ -272,7 +247,9 @@ class ContactSet:
         self.pair = cat([np.full(p.X.shape[0], i, dtype=np.int64) for i, p in enumerate(P)], (0,), np.int64)
         self.area = cat([p.area for p in P], (0,))
         self.kind = np.array([p.kind for p in P], dtype=np.int64)
-        self.params = np.array([p.params for p in P], dtype=float).reshape(-1, _N_PARAMS)
+        self.params = np.zeros((len(P), max([p.params.size for p in P], default=0)))     # padded rows
+        for i, p in enumerate(P):
+            self.params[i, :p.params.size] = p.params
         self.eps = np.array([p.penalty for p in P], dtype=float)
         self.eps_t = np.array([p.tangential_penalty for p in P], dtype=float)
         self.mu = np.array([p.friction for p in P], dtype=float)
@@ -308,10 +285,11 @@ class ContactSet:
         return self.pairs[0].comm.allreduce(loc, op=MPI.MIN)
 
     def args(self):
-        """The arguments of contact_forces from X to pen."""
-        return (self.X, self.dofs, self.pair, self.area, self.kind, self.params, self.eps, self.eps_t, self.mu,
-                self.law, self.gN, self.t_hist, self.N_hist, self.p_hist, self.t_scal, self.slip, self.fc, self.acc,
-                self.pen)
+        """The :class:`~fenics_plast.solvers.contact_kernels.ContactArrays` of contact_forces (the arrays
+        themselves: the kernel updates the history in place)."""
+        return ck.ContactArrays(self.X, self.dofs, self.pair, self.area, self.kind, self.params, self.eps,
+                                self.eps_t, self.mu, self.law, self.gN, self.t_hist, self.N_hist, self.p_hist,
+                                self.t_scal, self.slip, self.fc, self.acc, self.pen)
 
     def translations(self, t):
         """(npairs, dim) tool translations at time t [mm]."""
@@ -332,7 +310,7 @@ class ContactSet:
                 g, N = p.tool.gap_np(x, t)
                 self.gN[p.sl, 0] = g
                 self.gN[p.sl, 1:] = np.asarray(N)[:, :self.dim]
-        ck.contact_forces(u, du, dt, *self.args(), trans_old, trans_new, fcon)
+        ck.contact_forces(u, du, dt, self.args(), trans_old, trans_new, fcon)
 
     # -- checkpoints -------------------------------------------------------------------------
     def state_dict(self, dof_keys, comm):

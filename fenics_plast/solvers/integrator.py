@@ -270,15 +270,15 @@ def advance_general(nsteps, dt, v, a, free_minv, mass, du, n, force_args, fload,
     same kernels, in the same order, as the step-by-step path of ExplicitDynamics).
 
     fload_rows (nsteps, n) or (nsteps, 0): the load vector at the step ends (none: fload stays);
-    pvals (nsteps, np, 2) the prescribed values of each step; contact_args: the arguments of
-    :func:`contact_forces` from X to pen; trans (nsteps + 1, npairs, 2) the tool translations at
+    pvals (nsteps, np, 2) the prescribed values of each step; contact_args: the
+    :class:`~fenics_plast.solvers.contact_kernels.ContactArrays` of :func:`contact_forces`; trans (nsteps + 1, npairs, 2) the tool translations at
     the step times. work (2,) += internal work, load work [N mm]; walls: as :func:`stop_at_walls`;
     kept (2, n): as :func:`advance`. Returns (steps done, status) as :func:`advance` (a failed step
     stops before its loads, contact and kick).
     """
     u, u_n, f = force_args[0], force_args[1], force_args[-1]
     has_load = fload_rows.shape[1] > 0
-    has_contact = contact_args[0].shape[0] > 0
+    has_contact = contact_args.X.shape[0] > 0
     for k in range(nsteps):
         kept[0, :n] = v[:n]
         kept[1, :n] = du[:n]
@@ -292,7 +292,7 @@ def advance_general(nsteps, dt, v, a, free_minv, mass, du, n, force_args, fload,
         if has_load:
             fload[:] = fload_rows[k]
         if has_contact:
-            contact_forces(u, du, dt, *contact_args, trans[k], trans[k + 1], fcon)
+            contact_forces(u, du, dt, contact_args, trans[k], trans[k + 1], fcon)
         wi1, wl1 = kick_general(v, a, f, fload, fcon, free_minv, mass, du, dt, n, pdofs, pset, pvals[k],
                                 r_old, reac, wset, walls)
         work[0] += 0.5 * (wi0 + wi1)
