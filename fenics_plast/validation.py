@@ -14,6 +14,7 @@ from typing import Any
 from fenics_plast.errors import SceneError
 from fenics_plast.output import file_name_problem
 from fenics_plast.expressions import ExpressionError, check_times, parse_value
+from fenics_plast.hardening_laws import laws
 from fenics_plast.quantities.registry import column_names, kind
 from fenics_plast.tool_shapes import shapes as tool_shapes
 from fenics_plast.schema import (OPTIONAL, REQUIRED, SCHEMA, SECTIONS, US, Key, Table, VALUE_DOC, number_text,
@@ -390,30 +391,9 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
     for n, m in mats.items():
         if explicit and m.density is None:
             v.fail(f"materials.{n}.density is missing: required in explicit analyses [kg/m³]")
-        h = m.hardening
-        if h is not None and h.law == "johnson_cook":
-            d = f"materials.{n}.hardening"
-            if m.density is None:
-                v.fail(f"materials.{n}.density is missing: required by {d}.law = 'johnson_cook' (adiabatic "
-                       f"heating) [kg/m³]")
-            if h.melting_temperature <= h.room_temperature:
-                v.fail(f"{d}.melting_temperature = {_fmt(h.melting_temperature)} is out of range: must exceed "
-                       f"{d}.room_temperature = {_fmt(h.room_temperature)} [K]")
-            if h.initial_temperature is not None and h.initial_temperature >= h.melting_temperature:
-                v.fail(f"{d}.initial_temperature = {_fmt(h.initial_temperature)} is out of range: must be below "
-                       f"{d}.melting_temperature = {_fmt(h.melting_temperature)} [K]")
-        if h is not None and h.law == "table":
-            eps, sig, d = h.strain, h.stress, f"materials.{n}.hardening"
-            if len(eps) < 2:
-                v.fail(f"{d}.strain has {len(eps)} entries: must have at least 2")
-            if eps[0] != 0.0:
-                v.fail(f"{d}.strain = {list(eps)} is not allowed: the first entry must be 0")
-            if any(b <= a for a, b in zip(eps, eps[1:])):
-                v.fail(f"{d}.strain = {list(eps)} is not allowed: must be strictly increasing")
-            if len(sig) != len(eps):
-                v.fail(f"{d}.stress has {len(sig)} entries: must have as many as {d}.strain ({len(eps)})")
-            if any(x < 0 for x in sig):
-                v.fail(f"{d}.stress = {list(sig)} is out of range: each entry must be >= 0")
+        law = None if m.hardening is None else laws()[m.hardening.law]
+        if law is not None and law.check is not None:
+            law.check(f"materials.{n}", m, v.fail)
     for n, b in t["boundary"].items():
         d = f"boundary.{n}"
         if b.group is None and b.type != "wall":
@@ -475,12 +455,13 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
         if p.type == "profile" and (p.output not in t["outputs"]
                                     or not getattr(kind(t["outputs"][p.output].quantity), "PROFILE", False)):
             v.fail(f"plots.{n}.output = {p.output!r} is not a thickness output")
-    # a temperature is the state of Johnson-Cook materials only
-    thermal = any(m.hardening is not None and m.hardening.law == "johnson_cook" for m in mats.values())
+    # a temperature is the state of the materials of a thermal law only
+    thermal = any(m.hardening is not None and laws()[m.hardening.law].thermal for m in mats.values())
     asks = [f"outputs.{n}.field" for n, o in t["outputs"].items() if o.quantity == "field" and o.field == "temperature"]
     asks += [f"plots.{n}.field" for n, p in t["plots"].items() if p.type == "shape" and p.field == "temperature"]
     if asks and not thermal:
-        v.fail(f"{asks[0]} = 'temperature' needs a material with a temperature: hardening.law = 'johnson_cook'")
+        names = " or ".join(repr(law.name) for law in laws().values() if law.thermal)
+        v.fail(f"{asks[0]} = 'temperature' needs a material with a temperature: hardening.law = {names}")
     ends = [s.end for s in t["steps"].values()]
     if len(set(ends)) != len(ends):
         v.fail("steps: two steps have the same end")

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
 from fenics_plast.declarations import gathered
 from fenics_plast.scene_key import OPTIONAL, REQUIRED, Key
@@ -37,6 +37,9 @@ class HardeningLaw:
     pack : {key: value} (every declared key present, defaults filled in, other keywords passed
         through) -> the parameter list; None: the values of ``params`` in their order.
     thermal : the law has a temperature state.
+    check : (dotted, material, fail) -> None, the scene rules of the law beyond each key's own range, run
+        by the scene validation: ``dotted`` is ``materials.<name>``, ``material`` that validated table
+        (attributes ``hardening``, ``density``, ...), ``fail(message)`` reports an error (raises); None: none.
     """
     name: str
     code: int
@@ -45,6 +48,7 @@ class HardeningLaw:
     flow: Callable | None = None
     pack: Callable[[dict], list] | None = None
     thermal: bool = False
+    check: Callable[[str, Any, Callable[[str], None]], None] | None = None
 
     def vector(self, kw: dict) -> list:
         """The parameter list of the keyword values ``kw`` (missing keys take their declared default;

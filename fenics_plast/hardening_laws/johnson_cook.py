@@ -7,7 +7,7 @@ map. This module declares its scene keys and packs them: chi = taylor_quinney / 
 rho the material's density [tonne/mm^3] (keyword ``density``, from ``materials.<name>.density``).
 """
 from fenics_plast.hardening_laws import HardeningLaw
-from fenics_plast.scene_key import OPTIONAL, REQUIRED, Key
+from fenics_plast.scene_key import OPTIONAL, REQUIRED, Key, number_text
 
 # parameter positions
 JC_A, JC_B, JC_N, JC_C, JC_RATE0, JC_M, JC_TMELT, JC_TROOM, JC_CHI, JC_T0 = range(10)
@@ -30,6 +30,20 @@ def pack(kw: dict) -> list:
                          "and 0 <= taylor_quinney <= 1")
     chi = beta / (rho * cp * RHO_CP_TO_MPA_PER_K)
     return [kw["A"], kw["B"], kw["n"], kw["C"], kw["reference_strain_rate"], kw["m"], t_melt, t_room, chi, t0]
+
+
+def check(dotted: str, material, fail) -> None:
+    """Scene rules (:class:`~fenics_plast.hardening_laws.HardeningLaw` ``check``): the material's density is
+    given (adiabatic heating), melting above room temperature, the initial temperature below melting."""
+    h, d = material.hardening, f"{dotted}.hardening"
+    if material.density is None:
+        fail(f"{dotted}.density is missing: required by {d}.law = 'johnson_cook' (adiabatic heating) [kg/m³]")
+    if h.melting_temperature <= h.room_temperature:
+        fail(f"{d}.melting_temperature = {number_text(h.melting_temperature)} is out of range: must exceed "
+             f"{d}.room_temperature = {number_text(h.room_temperature)} [K]")
+    if h.initial_temperature is not None and h.initial_temperature >= h.melting_temperature:
+        fail(f"{d}.initial_temperature = {number_text(h.initial_temperature)} is out of range: must be below "
+             f"{d}.melting_temperature = {number_text(h.melting_temperature)} [K]")
 
 
 _POS = dict(lo=0.0)
@@ -61,4 +75,4 @@ LAW = HardeningLaw(
                           "sigma_y d eqps / (density c_p).", "J/(kg K)", **_POS),
      "taylor_quinney": Key("float", 0.9, "Taylor-Quinney coefficient beta: the fraction of plastic work that "
                            "heats (0: no heating).", "", lo=0.0, lo_open=False, hi=1.0, hi_open=False)},
-    pack=pack, thermal=True)
+    pack=pack, thermal=True, check=check)

@@ -25,8 +25,25 @@ def pack(kw: dict) -> list:
     return [len(strain), *strain, *stress]
 
 
+def check(dotted: str, material, fail) -> None:
+    """Scene rules (:class:`~fenics_plast.hardening_laws.HardeningLaw` ``check``): at least 2 strains, the
+    first 0, strictly increasing; one stress >= 0 per strain."""
+    h, d = material.hardening, f"{dotted}.hardening"
+    eps, sig = h.strain, h.stress
+    if len(eps) < 2:
+        fail(f"{d}.strain has {len(eps)} entries: must have at least 2")
+    if eps[0] != 0.0:
+        fail(f"{d}.strain = {list(eps)} is not allowed: the first entry must be 0")
+    if any(b <= a for a, b in zip(eps, eps[1:])):
+        fail(f"{d}.strain = {list(eps)} is not allowed: must be strictly increasing")
+    if len(sig) != len(eps):
+        fail(f"{d}.stress has {len(sig)} entries: must have as many as {d}.strain ({len(eps)})")
+    if any(x < 0 for x in sig):
+        fail(f"{d}.stress = {list(sig)} is out of range: each entry must be >= 0")
+
+
 LAW = HardeningLaw(
     "table", 3, "sigma_y piecewise linear through (strain, stress), the last slope continued beyond the table.",
     {"strain": Key("floats", REQUIRED, "Table: equivalent plastic strains, >= 2, strictly increasing, first 0."),
      "stress": Key("floats", REQUIRED, "Table: yield stress at each strain (piecewise linear), each >= 0.", "MPa")},
-    flow, pack)
+    flow, pack, check=check)

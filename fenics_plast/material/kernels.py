@@ -204,57 +204,6 @@ def _eigh3(S, w, Q):
 
 
 @_njit
-def _plastic_multiplier(q_tr, eps_n, mu, law, hp):
-    """Solve the radial-return equation q_tr - 3 mu dg - sigma_y(eps_n + dg) = 0 for dg >= 0.
-
-    Newton safeguarded by bisection on [0, q_tr/(3 mu)] (g(0) > 0, g(hi) = -sigma_y <= 0).
-    Returns (dg, H) with H = sigma_y'(eps_n + dg).
-    """
-    lo, hi = 0.0, q_tr / (3.0 * mu)
-    dg = 0.0
-    for _it in range(100):
-        sy, h = flow_stress(law, hp, eps_n + dg)
-        g = q_tr - 3.0 * mu * dg - sy
-        if abs(g) <= 1e-14 * q_tr:
-            break
-        if g > 0.0:
-            lo = dg
-        else:
-            hi = dg
-        slope = 3.0 * mu + h
-        nxt = dg + g / slope if slope > 0.0 else -1.0
-        if not (lo < nxt < hi):
-            nxt = 0.5 * (lo + hi)
-        if nxt == dg:
-            break
-        dg = nxt
-    sy, h = flow_stress(law, hp, eps_n + dg)
-    return dg, h
-
-
-@_njit
-def _return_map(q_tr, eps_n, mu, law, hp, yield_tol):
-    """Von Mises check and radial return for a trial equivalent stress q_tr [MPa].
-
-    Returns (dgamma, rr_factor, c) of the algorithmic modulus; dgamma = 0 if elastic.
-    """
-    if law == ELASTIC:
-        return 0.0, 1.0, 0.0
-    sy_n = flow_stress(law, hp, eps_n)[0]
-    if q_tr - sy_n <= yield_tol * max(sy_n, 1e-300) or q_tr == 0.0:
-        return 0.0, 1.0, 0.0
-    if law == LINEAR:
-        # g(dg) = q_tr - 3 mu dg - sigma_0 - H (eps_n + dg) is linear: Newton's first step is exact
-        h = hp[1]
-        dg = (q_tr - sy_n) / (3.0 * mu + h)
-    else:
-        dg, h = _plastic_multiplier(q_tr, eps_n, mu, law, hp)
-    rr_factor = 1.0 - 3.0 * mu * dg / q_tr
-    c = 6.0 * mu * mu * (1.0 / (3.0 * mu + h) - dg / q_tr)
-    return dg, rr_factor, c
-
-
-@_njit
 def _jc_temperature(hp, eps, dg, dt, T_n, th_n, T_start):
     """End-of-increment temperature of the Johnson-Cook law, its flow stress and total slope in dg.
 
@@ -319,29 +268,34 @@ def _jc_rate_guess(q_tr, sy_n, C, x0, mu3, dg_pp):
     return dg if dg > x0 else dg_pp
 
 
+# inlined by numba: a call per Newton iteration made the strain-only return map ~5 % slower (measured)
+@numba.njit(cache=True, fastmath={"contract", "arcp", "nsz"}, nogil=True, inline="always")
+def _end_flow_stress(law, hp, eps_n, dg, dt, T_n, th_n, T_start):
+    """Flow stress at the end of an increment dg of the law ``law``: (T, S, H, dT/ddg) [K, MPa, MPa, K].
+
+    Johnson-Cook: S(dg) at the implicit temperature T(dg) (:func:`_jc_temperature`, T_n, th_n, T_start
+    as there), H its total slope. Other laws: S = sigma_y(eps_n + dg), H = sigma_y', T = T_n, dT/ddg = 0.
+    """
+    if law == JOHNSON_COOK:
+        return _jc_temperature(hp, eps_n + dg, dg, dt, T_n, th_n, T_start)
+    sy, h = flow_stress(law, hp, eps_n + dg)
+    return T_n, sy, h, 0.0
+
+
 @_njit
-def _return_map_jc(q_tr, eps_n, T_n, dt, mu, hp, yield_tol):
-    """Johnson-Cook return map (module docstring): (dgamma, rr_factor, c, T), T the end-of-increment
-    temperature [K]. The yield check uses the flow stress at dg = 0: reference rate, T_n."""
-    th_n = jc_softening(hp, T_n)[0]
-    sy_n = jc_strain_rate(hp, eps_n, 0.0, dt)[0] * th_n
-    if q_tr - sy_n <= yield_tol * max(sy_n, 1e-300) or q_tr == 0.0:
-        return 0.0, 1.0, 0.0, T_n
-    # g(dg) = q_tr - 3 mu dg - S(dg): g(0) > 0 >= g(q_tr / 3 mu), bisection keeps the bracket. Start
-    # from the perfectly plastic estimate (never from 0: S'(0) may be infinite, eps^n at eps = 0 and
-    # C / dg of the rate term) or, with the rate term, from the smaller root of the rate term alone
-    # (_jc_rate_guess: 2-4 iterations left instead of ~7). With the rate term S is nearly linear in
-    # ln(dg): Newton in x = ln(dg), dg <- dg exp(g / (g' dg)) (Newton in dg creeps up the logarithm).
+def _plastic_multiplier(q_tr, mu, dg, log_newton, law, hp, eps_n, T_n, dt, th_n):
+    """Solve the radial-return equation g(dg) = q_tr - 3 mu dg - S(dg) = 0 for dg >= 0 from the start dg,
+    S = sigma_y at the end of the increment (:func:`_end_flow_stress`; T_n, dt, th_n: Johnson-Cook only).
+
+    Newton safeguarded by bisection on [0, q_tr/(3 mu)] (g(0) > 0, g(hi) = -S <= 0); log_newton:
+    Newton in x = ln(dg), dg <- dg exp(g / (g' dg)) (for S nearly linear in ln(dg), the rate term).
+    Returns (dg, H, T) with H = S'(dg) and T the end-of-increment temperature [K] (T_n if not thermal).
+    """
     lo, hi = 0.0, q_tr / (3.0 * mu)
-    dg = (q_tr - sy_n) / (3.0 * mu)
-    log_newton = dt > 0.0 and hp[JC_C] != 0.0
-    if log_newton and sy_n > 0.0:
-        dg = min(dg, _jc_rate_guess(q_tr, sy_n, hp[JC_C], dt * hp[JC_RATE0], 3.0 * mu, dg))
     # T_guess: where the inner solve for T starts, the last T moved along dT/ddg
-    T, sy, h, dT = T_n, sy_n, 0.0, 0.0
     T_guess = T_n
     for _it in range(100):
-        T, sy, h, dT = _jc_temperature(hp, eps_n + dg, dg, dt, T_n, th_n, T_guess)
+        T, sy, h, dT = _end_flow_stress(law, hp, eps_n, dg, dt, T_n, th_n, T_guess)
         g = q_tr - 3.0 * mu * dg - sy
         if abs(g) <= 1e-14 * q_tr:
             break
@@ -363,7 +317,50 @@ def _return_map_jc(q_tr, eps_n, T_n, dt, mu, hp, yield_tol):
         T_guess = T + dT * (nxt - dg)
         dg = nxt
     else:
-        T, sy, h, dT = _jc_temperature(hp, eps_n + dg, dg, dt, T_n, th_n, T_guess)
+        T, sy, h, dT = _end_flow_stress(law, hp, eps_n, dg, dt, T_n, th_n, T_guess)
+    return dg, h, T
+
+
+@_njit
+def _return_map(q_tr, eps_n, mu, law, hp, yield_tol):
+    """Von Mises check and radial return for a trial equivalent stress q_tr [MPa] (strain-only laws).
+
+    Returns (dgamma, rr_factor, c) of the algorithmic modulus; dgamma = 0 if elastic.
+    """
+    if law == ELASTIC:
+        return 0.0, 1.0, 0.0
+    sy_n = flow_stress(law, hp, eps_n)[0]
+    if q_tr - sy_n <= yield_tol * max(sy_n, 1e-300) or q_tr == 0.0:
+        return 0.0, 1.0, 0.0
+    if law == LINEAR:
+        # g(dg) = q_tr - 3 mu dg - sigma_0 - H (eps_n + dg) is linear: Newton's first step is exact
+        h = hp[1]
+        dg = (q_tr - sy_n) / (3.0 * mu + h)
+    else:
+        # from dg = 0 (g(0) > 0), Newton in dg; no temperature (T_n, th_n unused)
+        dg, h, _T = _plastic_multiplier(q_tr, mu, 0.0, False, law, hp, eps_n, 0.0, 0.0, 0.0)
+    rr_factor = 1.0 - 3.0 * mu * dg / q_tr
+    c = 6.0 * mu * mu * (1.0 / (3.0 * mu + h) - dg / q_tr)
+    return dg, rr_factor, c
+
+
+@_njit
+def _return_map_jc(q_tr, eps_n, T_n, dt, mu, hp, yield_tol):
+    """Johnson-Cook return map (module docstring): (dgamma, rr_factor, c, T), T the end-of-increment
+    temperature [K]. The yield check uses the flow stress at dg = 0: reference rate, T_n."""
+    th_n = jc_softening(hp, T_n)[0]
+    sy_n = jc_strain_rate(hp, eps_n, 0.0, dt)[0] * th_n
+    if q_tr - sy_n <= yield_tol * max(sy_n, 1e-300) or q_tr == 0.0:
+        return 0.0, 1.0, 0.0, T_n
+    # Start from the perfectly plastic estimate (never from 0: S'(0) may be infinite, eps^n at eps = 0
+    # and C / dg of the rate term) or, with the rate term, from the smaller root of the rate term alone
+    # (_jc_rate_guess: 2-4 iterations left instead of ~7). With the rate term S is nearly linear in
+    # ln(dg): Newton in ln(dg) (Newton in dg creeps up the logarithm).
+    dg = (q_tr - sy_n) / (3.0 * mu)
+    log_newton = dt > 0.0 and hp[JC_C] != 0.0
+    if log_newton and sy_n > 0.0:
+        dg = min(dg, _jc_rate_guess(q_tr, sy_n, hp[JC_C], dt * hp[JC_RATE0], 3.0 * mu, dg))
+    dg, h, T = _plastic_multiplier(q_tr, mu, dg, log_newton, JOHNSON_COOK, hp, eps_n, T_n, dt, th_n)
     rr_factor = 1.0 - 3.0 * mu * dg / q_tr
     c = 6.0 * mu * mu * (1.0 / (3.0 * mu + h) - dg / q_tr)
     return dg, rr_factor, c, T
