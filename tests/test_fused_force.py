@@ -39,7 +39,7 @@ def two_increments(s, field=None):
     """Increment 1: 0 -> U1 (yields), increment 2: U1 -> U2, as the explicit step applies them;
     ``field(X, scale)``: the displacement field (default :func:`_field`)."""
     field = _field if field is None else field
-    U1, U2 = field(s._X, 1.0), field(s._X, 1.04)
+    U1, U2 = field(s.reference_positions, 1.0), field(s.reference_positions, 1.04)
     s.u.x.array[:] = U1
     s._internal_force()
     s.u_n.x.array[:] = U1
