@@ -235,11 +235,11 @@ def test_force_pass_writes_nothing_for_a_folding_cell(case):
     s.u.x.scatter_forward()
     before = [x.copy() for x in _state(s)[3:]]
     if case == "ufl":
-        assert s._internal_force() == STEP_FOLDS
+        assert s.internal_force() == STEP_FOLDS
     else:
-        assert fused_force.internal_force(*s._force_args) is False or cell is None
+        assert fused_force.internal_force(*s.force_args) is False or cell is None
         if cell is not None:
-            assert fused_force.folded_cell(*s._force_args) >= 0
+            assert fused_force.folded_cell(*s.force_args) >= 0
     for x, y in zip(before, _state(s)[3:]):               # f, binv, eqps, tau as they were
         np.testing.assert_array_equal(x, y)
 

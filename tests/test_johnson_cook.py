@@ -275,7 +275,7 @@ def _two_increments(s):
             s.theta_n.x.array[:] = s.theta.x.array
         s.u.x.array[:] = u.reshape(-1)
         s.qmap.dt[0] = 1e-6
-        s._internal_force()
+        s.internal_force()
     return s
 
 

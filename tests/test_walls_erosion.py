@@ -138,7 +138,7 @@ def _force_with(s, alive, ratio, state):
     """f of the compiled pass from the saved state ``state`` with ``alive`` and ``ratio``."""
     s.qmap.binv[:], s.qmap.eqps[:] = state
     s.alive[:] = alive
-    args = list(s._force_args)
+    args = list(s.force_args)
     args[9] = ratio
     from fenics_plast.solvers import fused_force
     assert fused_force.internal_force(*args)

@@ -230,7 +230,7 @@ class ExplicitDynamics:
         # buffers
         self.a = np.zeros(self.n_own)
         self.du = np.zeros(self.n_own)
-        self._kept = np.zeros((2, self.n_own))     # v, du before the step in progress (_undo_step)
+        self.kept = np.zeros((2, self.n_own))      # v, du before the step in progress (_undo_step)
         self._fold = None                           # a step that would fold a cell, undone (_fold_back)
         self._flag = np.zeros(1, dtype=np.int32)    # _any_rank's buffer
         self.t = 0.0
@@ -277,7 +277,7 @@ class ExplicitDynamics:
         g, q = self.geometry, self.qmap
         # the arguments of fused_force.internal_force: persistent arrays, updated in place
         regions = self.material.point_layout(q.nq) if self.regions else None
-        self._force_args = (self.u.x.array, self.u_n.x.array, self.cell_nodes, g.dNdX, g.N, g.Rinv, g.W,
+        self.force_args = (self.u.x.array, self.u_n.x.array, self.cell_nodes, g.dNdX, g.N, g.Rinv, g.W,
                             self.element == "q1p0", self.alive, self.erosion_ratio, *self.material.kernel_args(),
                             regions, q.binv, q.eqps,
                             q.temperature, q.dt, q.tau_values, self._Fu, self._Finv, self._factor,
@@ -422,7 +422,7 @@ class ExplicitDynamics:
         self.theta.x.array[: self._n_theta] = self._b_theta_arr * self._cellvol_inv
         self.theta.x.scatter_forward()
 
-    def _internal_force(self):
+    def internal_force(self):
         """Material update + commit at the current u, then f_int into self.f (owned). Returns, the
         same on every rank (one or two small collectives per step under MPI):
         ``ti.STEP_OK``; ``ti.STEP_FOLDS`` when a cell folds at u on some rank (a quadrature point's
@@ -432,9 +432,9 @@ class ExplicitDynamics:
         on some rank (``_failure`` says which, on every rank; the fused route has committed that
         update, the ufl route has not)."""
         if self.fused:
-            if not self._no_fold(fused_force.folded_cell(*self._force_args)):
+            if not self._no_fold(fused_force.folded_cell(*self.force_args)):
                 return ti.STEP_FOLDS
-            ok = fused_force.update_and_force(*self._force_args)
+            ok = fused_force.update_and_force(*self.force_args)
             if self.comm.size > 1:
                 dc.scatter_reverse_add(self._ffun)
             return self._agree(None if ok else f"non-finite stress or internal force at step {self.step_count + 1}")
@@ -514,11 +514,11 @@ class ExplicitDynamics:
 
     def _undo_step(self):
         """Back to the state before the step in progress, whose force pass failed: u = u_n (owned and
-        ghosts), v and du as kept before the step (``_kept``), no wall stop
+        ghosts), v and du as kept before the step (``kept``), no wall stop
         pending, theta = theta_n (ufl route); u_n stays equal to u."""
         self.u.x.array[:] = self.u_n.x.array
-        self.v.x.array[: self.n_own] = self._kept[0]
-        self.du[:] = self._kept[1]
+        self.v.x.array[: self.n_own] = self.kept[0]
+        self.du[:] = self.kept[1]
         self.walls.args[5][:] = 0
         if self.theta is not None:
             self.theta.x.array[:] = self.theta_n.x.array
@@ -528,7 +528,7 @@ class ExplicitDynamics:
         if self.has_drivers:
             self.drivers.initialize()
         else:
-            self._internal_force()
+            self.internal_force()
             np.multiply(self.f, self.free_minv, out=self.a)
             np.negative(self.a, out=self.a)
             self.KE0 = self.kinetic_energy()
@@ -541,8 +541,8 @@ class ExplicitDynamics:
         where (:meth:`_fold_back`)."""
         self.qmap.dt[0] = dt              # the material update's time increment (Johnson-Cook rate, heating)
         n = self.n_own
-        self._kept[0] = self.v.x.array[:n]           # v, du before the step (_undo_step)
-        self._kept[1] = self.du
+        self.kept[0] = self.v.x.array[:n]           # v, du before the step (_undo_step)
+        self.kept[1] = self.du
         if self.has_drivers:
             status = self.drivers.step(dt)
             if status != ti.STEP_OK:
@@ -559,7 +559,7 @@ class ExplicitDynamics:
             self.theta_n.x.array[:] = self.theta.x.array
         if self.comm.size > 1:
             self.u.x.scatter_forward()
-        status = self._internal_force()
+        status = self.internal_force()
         if status != ti.STEP_OK:
             self._step_failed(status, dt)   # back to the last finite u, v (no kick, not counted)
             return
@@ -580,7 +580,7 @@ class ExplicitDynamics:
         else:
             work = np.array([self.W_int])
             done, status = ti.advance(nsteps, dt, self.v.x.array, self.a, self.free_minv, self.du,
-                                      self.n_own, self._force_args, work, self.mass, self.walls.args, self._kept)
+                                      self.n_own, self.force_args, work, self.mass, self.walls.args, self.kept)
             self.W_int = float(work[0])
         for _ in range(done):
             self.t += dt

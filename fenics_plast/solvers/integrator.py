@@ -163,7 +163,7 @@ def kick(v, a, f, free_minv, du, dt, n, mass, walls):
 STEP_OK = -1
 #: status: the stress or force of the step is not finite (the quadrature state holds its update)
 STEP_NONFINITE = -2
-#: status (``ExplicitDynamics._internal_force``, :meth:`Drivers.step`): a cell folds, on some rank
+#: status (``ExplicitDynamics.internal_force``, :meth:`Drivers.step`): a cell folds, on some rank
 STEP_FOLDS = -3
 
 
@@ -481,7 +481,7 @@ class Drivers:
             s.v.x.array[self.pdofs] = vals[:, 1]
             s.u.x.scatter_forward()
             s.v.x.scatter_forward()
-        s._internal_force()
+        s.internal_force()
         if self.loads:
             why = None
             try:
@@ -500,7 +500,7 @@ class Drivers:
     def step(self, dt):
         """One step of the solver (the kernels of :func:`advance_general`, with the internal force of
         either route and, under MPI, the ghost update of u). Returns the status of the solver's force
-        pass (``ExplicitDynamics._internal_force``, the same on every rank): a failed step stops
+        pass (``ExplicitDynamics.internal_force``, the same on every rank): a failed step stops
         before its loads, contact and kick, and the solver undoes its drift."""
         s, n = self.s, self.n
         d = self.step_data(s.t, dt, 1)
@@ -511,7 +511,7 @@ class Drivers:
             s.theta_n.x.array[:] = s.theta.x.array
         if s.comm.size > 1:
             s.u.x.scatter_forward()
-        status = s._internal_force()
+        status = s.internal_force()
         if status != STEP_OK:
             return status               # the solver goes back (before loads, contact, kick)
         if self.loads:
@@ -531,10 +531,10 @@ class Drivers:
         s = self.s
         d = self.step_data(s.t, dt, nsteps)
         work = np.array([s.W_int, self.W_load])
-        out = advance_general(nsteps, dt, s.v.x.array, s.a, s.free_minv, s.mass, s.du, self.n, s._force_args,
+        out = advance_general(nsteps, dt, s.v.x.array, s.a, s.free_minv, s.mass, s.du, self.n, s.force_args,
                               self.fload, d.fload_rows, self.pdofs, self.pkind, self.pset, d.pvals, self.pv_old,
                               self.r_old, self.reac, self.wset, self.fcon, s.contact.args(), d.trans, work,
-                              s.walls.args, s._kept)
+                              s.walls.args, s.kept)
         s.W_int, self.W_load = float(work[0]), float(work[1])
         return out
 
