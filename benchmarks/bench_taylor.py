@@ -124,7 +124,7 @@ def bench(args):
         return tmax((time.perf_counter() - t) / R)
 
     if s.fused:
-        parts = {"fused pass (kinematics + material + force)": timed(s._internal_force)}
+        parts = {"fused pass (kinematics + material + force)": timed(s.internal_force)}
     else:
         def assemble_f():
             b = s._f

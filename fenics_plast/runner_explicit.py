@@ -110,7 +110,8 @@ def checked_steps(problem, solver) -> int:
         if dt > dt_stable:
             raise SceneError(
                 f"{problem.path}: analysis.time_steps = {ana.time_steps}: the time step end_time/time_steps = "
-                f"{dt:.4g} s exceeds the stable limit {dt_stable:.4g} s ({solver._limit_text(dt_stable)}); use at "
+                f"{dt:.4g} s exceeds the stable limit {dt_stable:.4g} s "
+                f"({solver.cell_steps.limit_text(dt_stable)}); use at "
                 f"least {math.ceil(ana.end_time / dt_stable)} steps or drop analysis.time_steps")
         steps = ana.time_steps
     else:
@@ -152,11 +153,12 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
     solver.set_velocity(initial_velocity_field(problem, solver.V, ct, groups))
 
     # what the automatic quantities read (quantities/kinds/mass_scaling.py, wall_energy.py, erosion.py)
-    scaling = SimpleNamespace(stats=solver.mass_scaling_stats, target_us=ana.mass_scaling_dt / US) \
+    cs = solver.cell_steps
+    scaling = SimpleNamespace(stats=cs.mass_scaling_stats, target_us=ana.mass_scaling_dt / US) \
         if ana.mass_scaling_dt > 0.0 else None
-    erosion = SimpleNamespace(stats=solver.erosion_stats, ratio=solver.erosion_ratio, cells=solver.eroded_cells) \
+    erosion = SimpleNamespace(stats=cs.erosion_stats, ratio=solver.erosion_ratio, cells=cs.eroded_cells) \
         if solver.erosion_ratio > 0.0 else None
-    body = Body(comm, solver.V, solver._X, solver.nodal_positions, solver.qmap,
+    body = Body(comm, solver.V, solver.reference_positions, solver.nodal_positions, solver.qmap,
                 cell_regions(ct, groups, solver.qmap.n_owned), tool_force=tool_force_of(problem, pairs, solver.bs),
                 energies=solver.energies, tool_translation=lambda tool, t: tools[tool].translation(t, use_ufl=False),
                 geometry=problem.mesh.geometry, mass_scaling=scaling, erosion=erosion,

@@ -32,7 +32,7 @@ def _displacement(solver):
     """(X, u) of the owned nodes: reference coordinates (n, 2) and displacement (n, 2) [mm]."""
     if isinstance(solver, ExplicitDynamics):
         n = solver.V.dofmap.index_map.size_local
-        return solver._X[:n], solver.u.x.array.reshape(-1, 2)[:n]
+        return solver.reference_positions[:n], solver.u.x.array.reshape(-1, 2)[:n]
     u = solver.displacement_function()
     V = u.function_space
     n = V.dofmap.index_map.size_local

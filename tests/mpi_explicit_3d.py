@@ -25,7 +25,7 @@ def main():
     stats = s.run(end_us * 1e-6, rows=3, progress=0)
     e = s.energies()
     n_nodes = s.V.dofmap.index_map.size_local
-    X, u = s._X[:n_nodes], s.u.x.array.reshape(-1, 3)[:n_nodes]
+    X, u = s.reference_positions[:n_nodes], s.u.x.array.reshape(-1, 3)[:n_nodes]
     Xs, us = comm.gather(X, root=0), comm.gather(u, root=0)
     eqps = s.max_eqps()
     if comm.rank == 0:

@@ -32,11 +32,11 @@ def main():
     s, ana = b.solver, problem.analysis
     stats = s.run(ana.end_time, dt_safety=ana.dt_safety, steps=ana.time_steps,
                   rows=problem.output.history_points, progress=0, mass_scaling_dt=ana.mass_scaling_dt)
-    eroded = s.erosion_stats()["cells"]
+    eroded = s.cell_steps.erosion_stats()["cells"]
     res = Quantities(problem.outputs, b.body, b.facet_tags, b.groups).row(end_us)
     e = s.energies()
     n_nodes = s.V.dofmap.index_map.size_local
-    X = s._X[:n_nodes]
+    X = s.reference_positions[:n_nodes]
     u = s.u.x.array.reshape(-1, 2)[:n_nodes]
     Xs = comm.gather(X, root=0)
     us = comm.gather(u, root=0)

@@ -27,10 +27,10 @@ def main():
     s = build_explicit(problem, comm).solver
     ana = problem.analysis
     stats = s.run(ana.end_time, dt_safety=ana.dt_safety, rows=3, progress=0, mass_scaling_dt=ana.mass_scaling_dt)
-    m = s.mass_scaling_stats()
+    m = s.cell_steps.mass_scaling_stats()
     e = s.energies()
     n = s.V.dofmap.index_map.size_local
-    X, u, mass = s._X[:n], s.u.x.array.reshape(-1, 2)[:n], s.mass[0::2][:n]
+    X, u, mass = s.reference_positions[:n], s.u.x.array.reshape(-1, 2)[:n], s.mass[0::2][:n]
     Xs, us, ms = comm.gather(X, root=0), comm.gather(u, root=0), comm.gather(mass, root=0)
     if comm.rank == 0:
         X, u, mass = np.concatenate(Xs), np.concatenate(us), np.concatenate(ms)

@@ -73,7 +73,7 @@ def test_elastic_wave_speed_and_stress():
     assert s.c == pytest.approx(c, rel=1e-12)
     v0 = 1e-4 * c                                               # strain 1e-4
     s.set_velocity((0.0, -v0))
-    X = s._X
+    X = s.reference_positions
     n = s.V.dofmap.index_map.size_local
     axis = np.where(np.abs(X[:n, 0]) < 1e-12)[0]
     front = {}

@@ -85,7 +85,7 @@ def test_longitudinal_wave_in_laterally_held_bar():
     v0 = 1e-4 * c
     s.set_velocity((0.0, 0.0, -v0))
     n = s.V.dofmap.index_map.size_local
-    X = s._X[:n]
+    X = s.reference_positions[:n]
     line = np.flatnonzero((np.abs(X[:, 0]) < tol) & (np.abs(X[:, 1]) < tol))
     front = {}
 

@@ -324,7 +324,7 @@ def mpi_case(comm=MPI.COMM_WORLD):
     s.run(5e-6, rows=3, progress=0)
     e = s.energies()
     n = s.V.dofmap.index_map.size_local
-    X, u = comm.gather(s._X[:n], root=0), comm.gather(s.u.x.array.reshape(-1, 2)[:n], root=0)
+    X, u = comm.gather(s.reference_positions[:n], root=0), comm.gather(s.u.x.array.reshape(-1, 2)[:n], root=0)
     out = dict(force=pair.force(), reaction=s.reaction(k), impulse=pair.impulse(), steps=s.step_count,
                pen=pair.max_penetration_run(), eqps=s.max_eqps(), ranks=comm.size,
                **{f"e_{key}": v for key, v in e.items()})

@@ -159,7 +159,7 @@ def test_fold_stops_at_the_last_finite_state():
     state = [a.copy() for a in _state(s)]
     assert all(np.isfinite(a).all() for a in state)
     assert e.stats["steps"] == s.step_count and e.results["stopped_at_us"] == pytest.approx(s.t / US)
-    assert s._folded_cells() == -1                       # the state kept has no folded cell
+    assert s.folded_cells() == -1                       # the state kept has no folded cell
     # bit for bit the state of a run stopped before that step by max_steps (steps grouped otherwise)
     b2 = build_explicit(load_problem(TAYLOR, ["output.history_points=9", velocity(1000)]), COMM)
     b2.solver.run(80 * US, rows=9, progress=0, max_steps=s.step_count)
@@ -211,7 +211,7 @@ def test_nonfinite_stress_stops_at_once(route):
 def _point_jacobians(s, cell):
     """J at the quadrature points of ``cell`` (hoop stretch included), from the reference gradients."""
     g = s.geometry
-    ue = s.u.x.array.reshape(-1, s.bs)[s._cell_nodes[cell]]
+    ue = s.u.x.array.reshape(-1, s.bs)[s.cell_nodes[cell]]
     J = np.linalg.det(np.eye(s.bs) + np.einsum("ai,qaj->qij", ue, g.dNdX[cell]))
     return J if s.three_d else J * (1.0 + g.Rinv[cell] * (g.N @ ue[:, 0]))
 
@@ -228,18 +228,18 @@ def test_force_pass_writes_nothing_for_a_folding_cell(case):
     s.run(2 * US, rows=2, progress=0)                     # a plastic state to keep
     cell = 0 if s.n_cells_own else None
     if cell is not None:                                  # push the last vertex past the opposite one
-        nodes = s._cell_nodes[cell]
-        a, X = nodes[-1], s._X[nodes]
+        nodes = s.cell_nodes[cell]
+        a, X = nodes[-1], s.reference_positions[nodes]
         s.u.x.array[a * s.bs:(a + 1) * s.bs] += 1.5 * (X[0] - X[-1])
         assert _point_jacobians(s, cell).min() < 0.0
     s.u.x.scatter_forward()
     before = [x.copy() for x in _state(s)[3:]]
     if case == "ufl":
-        assert s._internal_force() == STEP_FOLDS
+        assert s.internal_force() == STEP_FOLDS
     else:
-        assert fused_force.internal_force(*s._force_args) is False or cell is None
+        assert fused_force.internal_force(*s.force_args) is False or cell is None
         if cell is not None:
-            assert fused_force.folded_cell(*s._force_args) >= 0
+            assert fused_force.folded_cell(*s.force_args) >= 0
     for x, y in zip(before, _state(s)[3:]):               # f, binv, eqps, tau as they were
         np.testing.assert_array_equal(x, y)
 

@@ -143,8 +143,8 @@ def test_mass_goes_to_the_cells_below_the_target():
     v = s.v.x.array[: s.n_own].copy()
     assert s.scale_mass(target) == below.size
     # the cells scaled, and by how much: each reaches the target
-    assert np.array_equal(np.flatnonzero(s.cell_scale > 1.0), below)
-    np.testing.assert_allclose(d[below] * np.sqrt(s.cell_scale[below]), target, rtol=1e-12)
+    assert np.array_equal(np.flatnonzero(s.cell_steps.cell_scale > 1.0), below)
+    np.testing.assert_allclose(d[below] * np.sqrt(s.cell_steps.cell_scale[below]), target, rtol=1e-12)
     assert s.stable_dt() == pytest.approx(target, rel=1e-12)
     # the nodes that got mass: exactly those of the scaled cells (both components alike)
     nodes = cells_cyclic(s)[0]
@@ -152,10 +152,10 @@ def test_mass_goes_to_the_cells_below_the_target():
     assert np.array_equal(np.flatnonzero(dm[0::2] > 0), np.unique(nodes[below]))
     assert np.array_equal(dm[0::2], dm[1::2]) and (dm >= 0).all()
     # how much: the mass increase, the reported added mass and the cells' share (dolfinx) agree
-    stats = s.mass_scaling_stats()
+    stats = s.cell_steps.mass_scaling_stats()
     cm = cell_masses(s)
     assert stats["added_mass"] == pytest.approx(dm[0::2].sum(), rel=1e-12)
-    assert stats["added_mass"] == pytest.approx(float(((s.cell_scale - 1.0) * cm).sum()), rel=1e-12)
+    assert stats["added_mass"] == pytest.approx(float(((s.cell_steps.cell_scale - 1.0) * cm).sum()), rel=1e-12)
     assert stats["body_mass"] == pytest.approx(float(cm.sum()), rel=1e-12)
     assert stats["body_mass"] == pytest.approx(RHO * math.pi * 3.2 ** 2 * 32.4, rel=1e-12)
     assert stats["cells"] == below.size and stats["fraction"] == stats["added_mass"] / stats["body_mass"]
@@ -163,9 +163,9 @@ def test_mass_goes_to_the_cells_below_the_target():
     assert stats["energy"] == pytest.approx(0.5 * float(np.dot(dm * v, v)), rel=1e-12)
     assert stats["kinetic"] == pytest.approx(stats["energy"], rel=1e-12)
     # never removed, never counted twice
-    m1, f1 = s.mass.copy(), s.cell_scale.copy()
+    m1, f1 = s.mass.copy(), s.cell_steps.cell_scale.copy()
     assert s.scale_mass(target) == 0 and s.scale_mass(0.5 * target) == 0
-    assert np.array_equal(s.mass, m1) and np.array_equal(s.cell_scale, f1)
+    assert np.array_equal(s.mass, m1) and np.array_equal(s.cell_steps.cell_scale, f1)
 
 
 def test_energy_balance_with_mass_scaling():
@@ -174,7 +174,7 @@ def test_energy_balance_with_mass_scaling():
     b = build("analysis.end_time=30")
     s = b.solver
     s.run(30e-6, rows=3, progress=0, mass_scaling_dt=0.1e-6)
-    e, m = s.energies(), s.mass_scaling_stats()
+    e, m = s.energies(), s.cell_steps.mass_scaling_stats()
     assert 20 < m["cells"] < s.cells_global and m["fraction"] > 0.3
     assert e["mass_scaling"] == m["energy"] > 0.05 * s.KE0
     assert e["balance_error"] < 0.01
@@ -190,7 +190,7 @@ def test_fused_equals_ufl_with_mass_scaling(tmp_path):
     for route in ("fused", "ufl"):
         s = build("analysis.end_time=5", f"analysis.internal_force={route}").solver
         s.run(5e-6, rows=3, progress=0, mass_scaling_dt=0.1e-6)
-        res[route] = (s.step_count, s.mass.copy(), s.u.x.array.copy(), s.mass_scaling_stats())
+        res[route] = (s.step_count, s.mass.copy(), s.u.x.array.copy(), s.cell_steps.mass_scaling_stats())
     (na, ma, ua, sa), (nb, mb, ub, sb) = res["fused"], res["ufl"]
     assert na == nb and sa["cells"] == sb["cells"] > 0
     np.testing.assert_allclose(mb, ma, rtol=1e-10)
@@ -287,7 +287,8 @@ def test_element_policy_takes_the_element_step_where_larger():
     s = b.solver
     s.run(30e-6, rows=3, progress=0)
     d = size_dt(s)
-    e = s._eig_dt(np.arange(s.n_cells_own))
+    s.cell_steps.size_dt()                         # (the node positions of the element steps)
+    e = s.cell_steps.element_dt(np.arange(s.n_cells_own))
     assert s.stable_dt() == pytest.approx(float(np.maximum(d, e).min()), rel=1e-12)
     assert s.stable_dt() > d.min()                 # the flattened axis cells: their element is not that thin
 

@@ -39,14 +39,14 @@ def two_increments(s, field=None):
     """Increment 1: 0 -> U1 (yields), increment 2: U1 -> U2, as the explicit step applies them;
     ``field(X, scale)``: the displacement field (default :func:`_field`)."""
     field = _field if field is None else field
-    U1, U2 = field(s._X, 1.0), field(s._X, 1.04)
+    U1, U2 = field(s.reference_positions, 1.0), field(s.reference_positions, 1.04)
     s.u.x.array[:] = U1
-    s._internal_force()
+    s.internal_force()
     s.u_n.x.array[:] = U1
     if s.theta is not None:
         s.theta_n.x.array[:] = s.theta.x.array
     s.u.x.array[:] = U2
-    s._internal_force()
+    s.internal_force()
     return s
 
 

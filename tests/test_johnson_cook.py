@@ -265,7 +265,7 @@ def _solver(route, model):
 def _two_increments(s):
     """Two increments of a smooth, non-homogeneous field (as tests/test_fused_force.py), each over
     dt = 1 us: plastic rates 1e3-1e5/s, heating."""
-    r, z = s._X[:, 0], s._X[:, 1]
+    r, z = s.reference_positions[:, 0], s.reference_positions[:, 1]
     for scale in (1.0, 1.04):
         u = np.empty((len(r), 2))
         u[:, 0] = scale * (0.08 * r * (1.0 + 0.3 * z / 8.0) + 0.01 * z)
@@ -275,7 +275,7 @@ def _two_increments(s):
             s.theta_n.x.array[:] = s.theta.x.array
         s.u.x.array[:] = u.reshape(-1)
         s.qmap.dt[0] = 1e-6
-        s._internal_force()
+        s.internal_force()
     return s
 
 

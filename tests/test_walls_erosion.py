@@ -54,7 +54,7 @@ def _bar_on_wall(refine):
     rows = []
 
     def on_row(s, t):
-        z = s._X[: n // 2, 1] + s.u.x.array[1:n:2]
+        z = s.reference_positions[: n // 2, 1] + s.u.x.array[1:n:2]
         rows.append((t, _sum(np.dot(m, s.v.x.array[1:n:2])) / M, COMM.allreduce(float(z.min()), op=MPI.MIN),
                      s.energies()))
     s.run(problem.analysis.end_time, dt_safety=0.8, rows=problem.output.history_points, on_row=on_row,
@@ -105,7 +105,7 @@ def _point_jacobians(s, cell):
     """J = det F at the quadrature points of ``cell`` (hoop stretch included in axisymmetry),
     written here from the reference gradients without the solver's kernels."""
     g = s.geometry
-    ue = s.u.x.array.reshape(-1, s.bs)[s._cell_nodes[cell]]              # (nv, bs)
+    ue = s.u.x.array.reshape(-1, s.bs)[s.cell_nodes[cell]]              # (nv, bs)
     F = np.eye(s.bs) + np.einsum("ai,qaj->qij", ue, g.dNdX[cell])
     J = np.linalg.det(F)
     if not s.three_d:
@@ -118,8 +118,8 @@ def _fold_one_cell(s, target=0.05):
     7 of a hexahedron) until its smallest point Jacobian is ``target`` times their weighted mean (all
     still positive: a cell about to fold); returns the cell."""
     cell, u = 0, s.u.x.array
-    nodes = s._cell_nodes[cell]
-    a, X = nodes[-1], s._X[nodes]
+    nodes = s.cell_nodes[cell]
+    a, X = nodes[-1], s.reference_positions[nodes]
     W = s.geometry.W[cell]
 
     def ratio(alpha):
@@ -138,7 +138,7 @@ def _force_with(s, alive, ratio, state):
     """f of the compiled pass from the saved state ``state`` with ``alive`` and ``ratio``."""
     s.qmap.binv[:], s.qmap.eqps[:] = state
     s.alive[:] = alive
-    args = list(s._force_args)
+    args = list(s.force_args)
     args[9] = ratio
     from fenics_plast.solvers import fused_force
     assert fused_force.internal_force(*args)
@@ -199,11 +199,11 @@ def _run_taylor_400(end_us, resume_from=None):
 
 def test_taylor_400_completes_with_the_wall_and_erosion():
     s = _run_taylor_400(80.0)
-    e, er = s.energies(), s.erosion_stats()
+    e, er = s.energies(), s.cell_steps.erosion_stats()
     assert s.t == pytest.approx(80 * US, rel=1e-12)
     # a few cells of the axis column (reference r < 0.55 mm, the first ring of 6), under 1 % of the body
     assert 1 <= er["cells"] <= 10 and er["volume_fraction"] < 0.01
-    assert all(x[0] < 0.55 for _, x in s.eroded_cells())
+    assert all(x[0] < 0.55 for _, x in s.cell_steps.eroded_cells())
     assert er["mass_fraction"] == pytest.approx(er["volume_fraction"], rel=1e-9)    # one density
     # no node below the wall, the balance closes with the stops' energy (a small part of KE0)
     zmin = COMM.allreduce(float(s.nodal_positions()[:, 1].min()), op=MPI.MIN)
@@ -221,7 +221,7 @@ def test_taylor_400_restored_state_goes_on_as_uninterrupted():
     from fenics_plast.checkpoint import Keyed, KeyedTable
     a = _run_taylor_400(50.0)
     saved = {k: KeyedTable(k, v.values, v.keys) if isinstance(v, Keyed) else v for k, v in a.state_dict().items()}
-    assert a.erosion_stats()["cells"] >= 1 and saved["E_wall"] > 0.0
+    assert a.cell_steps.erosion_stats()["cells"] >= 1 and saved["E_wall"] > 0.0
     a.run(60 * US, dt_safety=0.8, rows=9, progress=0, mass_scaling_dt=0.005 * US)
     b = _run_taylor_400(60.0, resume_from=saved)
     np.testing.assert_array_equal(a.alive, b.alive)

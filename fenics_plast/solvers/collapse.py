@@ -46,29 +46,28 @@ def critical_cell(solver) -> dict:
     reference mesh [mm]), ``size`` (smallest edge or altitude [mm]), ``aspect`` (longest edge /
     size), ``volume_ratio`` J (current / reference volume: area times centroid radius in
     axisymmetry, area in plane strain; <= 0: inverted), ``factor`` (its mass-scaling density
-    factor), ``dt`` (its stable step [s], ``ExplicitDynamics.cell_dt``), ``dt_size`` and
+    factor), ``dt`` (its stable step [s], ``CellSteps.cell_dt``), ``dt_size`` and
     ``dt_element`` (its size estimate and its element's step 2 / omega_max [s]) and ``max_angle``,
     ``min_angle`` (its largest and smallest interior corner angles [deg]; above 180: no longer
     convex). Hexahedra: ``size`` is V / A_max (volume over largest face area), ``aspect`` longest
     edge / size, ``volume_ratio`` V / V0, and the angles are None."""
-    dt_loc, i = solver._local_min_dt()
+    cs = solver.cell_steps
+    dt_loc, i = cs.local_min_dt()
     best = solver.comm.allreduce((dt_loc, solver.comm.rank), op=MPI.MINLOC) if solver.comm.size > 1 \
         else (dt_loc, solver.comm.rank)
     info = None
     if solver.comm.rank == best[1] and i >= 0:
-        dt_size = float(solver._hbuf[i])
-        dt_el = float(solver._eig_dt(np.array([i]))[0])
+        dt_size = float(cs.size_dt()[i])
+        dt_el = float(cs.element_dt(np.array([i]))[0])
         info = _cell_info(solver, i, dt_loc, dt_size, dt_el)
     return solver.comm.bcast(info, root=best[1]) if solver.comm.size > 1 else info
 
 
 def _cell_info(solver, i, dt_loc, dt_size, dt_el):
-    """:func:`critical_cell`'s dict for owned cell i (rank-local; ``solver._xbuf`` holds the node
-    positions: call after ``solver._size_dt``)."""
-    if getattr(solver, "three_d", False):
+    """:func:`critical_cell`'s dict for owned cell i (rank-local)."""
+    if solver.cell_steps.three_d:
         return _hex_cell_info(solver, i, dt_loc, dt_size, dt_el)
-    idx = solver._cell_dofs[i]                        # cyclic order
-    P, P0 = solver._xbuf[idx].copy(), solver._X[idx]
+    P, P0 = solver.cell_steps.corners(i)              # cyclic order
     size = float(quad_min_size(P[None])[0])
     edges = np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1)
 
@@ -87,20 +86,19 @@ def _cell_info(solver, i, dt_loc, dt_size, dt_el):
     return dict(cell=int(solver.mesh.topology.original_cell_index[i]), position=P.mean(axis=0).tolist(),
                 reference=P0.mean(axis=0).tolist(), size=size,
                 aspect=float(edges.max() / max(size, 1e-300)),
-                volume_ratio=volume(P) / volume(P0), factor=float(solver.cell_scale[i]), dt=dt_loc,
+                volume_ratio=volume(P) / volume(P0), factor=float(solver.cell_steps.cell_scale[i]), dt=dt_loc,
                 dt_size=dt_size, dt_element=dt_el, max_angle=float(ang.max()), min_angle=float(ang.min()))
 
 
 def _hex_cell_info(solver, i, dt, dt_size, dt_element):
     """:func:`critical_cell`'s dict for owned hexahedron i (no corner angles)."""
-    idx = solver._cell_dofs[i]                            # basix order
-    P, P0 = solver._xbuf[idx].copy(), solver._X[idx]
+    P, P0 = solver.cell_steps.corners(i)                  # basix order
     size = float(hex_step.hex_size(P, np.arange(8)[None])[0])
     edges = hex_step.hex_edge_lengths(P[None])[0]
     return dict(cell=int(solver.mesh.topology.original_cell_index[i]), position=P.mean(axis=0).tolist(),
                 reference=P0.mean(axis=0).tolist(), size=size, aspect=float(edges.max() / max(size, 1e-300)),
                 volume_ratio=float(hex_step.hex_volume(P[None])[0] / hex_step.hex_volume(P0[None])[0]),
-                factor=float(solver.cell_scale[i]), dt=dt, dt_size=dt_size, dt_element=dt_element,
+                factor=float(solver.cell_steps.cell_scale[i]), dt=dt, dt_size=dt_size, dt_element=dt_element,
                 max_angle=None, min_angle=None)
 
 
@@ -193,12 +191,12 @@ def fold_error(solver, fold, dt_stable0, dt_floor, mass_scaling_dt,
     dt_stable = solver.stable_dt()                      # at the stop (collective)
     c = None
     if comm.rank == best[2] and i >= 0:
-        dt_size = solver._size_dt()                     # node positions into solver._xbuf
-        d_size = float(dt_size[i])
-        d_el = float(solver._eig_dt(np.array([i]))[0])
+        cs = solver.cell_steps
+        d_size = float(cs.size_dt()[i])
+        d_el = float(cs.element_dt(np.array([i]))[0])
         c = _cell_info(solver, i, max(d_size, d_el) if solver.stable_step == "element" else d_size, d_size, d_el)
         jnow = np.empty(solver.n_cells_own)
-        solver._folded_cells(jnow)
+        solver.folded_cells(jnow)
         c["j_now"] = float(jnow[i])
     c = comm.bcast(c, root=best[2]) if comm.size > 1 else c
     j_next = best[0]

@@ -87,14 +87,13 @@ from fenics_plast.schema import choices, default, key
 from fenics_plast.solvers import fused_force
 from fenics_plast.solvers.fused_force_hex import HexGeometry, hex_folded_cells
 from fenics_plast.solvers import integrator as ti
-from fenics_plast.solvers.cell_steps import CellSteps
+from fenics_plast.solvers.cell_steps import CellSteps, cell_masses
 from fenics_plast.solvers.collapse import collapse_error, fold_error
 from fenics_plast.solvers.explicit_contact import ContactSet
-from fenics_plast.solvers.quad_step import QUAD_CYCLE
 from fenics_plast.solvers.walls import RigidWalls
 
 
-class ExplicitDynamics(CellSteps):
+class ExplicitDynamics:
     """Central differences on a Q1 (element "q1") or Q1/P0 F-bar ("q1p0") displacement field.
 
     Parameters
@@ -112,13 +111,18 @@ class ExplicitDynamics(CellSteps):
     erosion_ratio : element erosion (fused route only): a cell whose smallest quadrature-point
         Jacobian falls below this fraction of its mean dilatation (about to fold) is eroded: its points
         keep their state and stress, it adds no force and no stable-step limit, its nodes keep their
-        mass (``alive``, :meth:`erosion_stats`). 0: off.
+        mass (``alive``, ``cell_steps.erosion_stats``). 0: off.
 
     Drivers are added after construction and before the first step (collective calls):
     :meth:`add_prescribed_velocity`, :meth:`add_prescribed_displacement`, :meth:`add_external_force`,
     :meth:`add_traction`, :meth:`add_contact`, :meth:`add_wall`. Prescribed sets are a component of a set of nodes
     (block indices of ``V``, :meth:`boundary_dofs`); nodal vectors (loads, masses, ``u.x.array``)
     are unrolled, entry ``2 node + component``.
+
+    Besides the nodal vectors, its collaborators read ``reference_positions`` (n_nodes, gdim), the
+    owned + ghost nodes' reference positions [mm], ``cell_nodes`` (nc, 4 or 8), the owned cells' nodes
+    (basix order), and ``cell_steps``, the :class:`~fenics_plast.solvers.cell_steps.CellSteps` of the
+    stable step per cell, selective mass scaling and the erosion statistics.
     """
 
     INTERNAL_FORCE_ROUTES = choices("analysis.internal_force")
@@ -170,30 +174,27 @@ class ExplicitDynamics(CellSteps):
         self.n_cells_own = mesh.topology.index_map(tdim).size_local
         self.cells_global = mesh.topology.index_map(tdim).size_global
 
-        # geometry for the stable step: reference positions of the dofs, cell -> dofs
+        # reference positions of the dofs' nodes (n, gdim) [mm], cell -> nodes (basix order)
         self.three_d = kin.three_d
         X = V.tabulate_dof_coordinates()[:, : self.bs]
-        self._X = np.ascontiguousarray(X)
+        self.reference_positions = np.ascontiguousarray(X)
         cell_nodes = np.ascontiguousarray(dc.cell_dofs(V)[: self.n_cells_own], dtype=np.int64)
-        self._cell_nodes = cell_nodes                                # basix order
-        # quadrilaterals: cyclic vertex order (size, element step); hexahedra: basix order
-        self._cell_dofs = cell_nodes if self.three_d else np.ascontiguousarray(cell_nodes[:, QUAD_CYCLE])
-        self._xbuf = np.empty_like(self._X)
-        self._hbuf = np.empty(self.n_cells_own)
+        self.cell_nodes = cell_nodes
         if self.regions:
             # per cell wave speed for the stable step; c: the fastest material (messages, round-off floor)
             speeds = material.wave_speeds(self.density)
-            self._cell_c = material.per_cell(speeds)
+            cell_c = material.per_cell(speeds)
             self.c = float(speeds.max())
         else:
-            self._cell_c = None
+            cell_c = None
             self.c = material.wave_speed(self.density)
         if self.three_d:
             points, weights = fused_force.quadrature(kin.degree, "hexahedron")   # the rule of kin.dx, QuadratureMap
-            self.geometry = HexGeometry(self._X[cell_nodes], points, weights)
+            self.geometry = HexGeometry(self.reference_positions[cell_nodes], points, weights)
         else:
             points, weights = fused_force.quadrature(kin.degree)        # the rule of kin.dx and QuadratureMap
-            self.geometry = fused_force.CellGeometry(self._X[cell_nodes], points, weights, kin.axisymmetric)
+            self.geometry = fused_force.CellGeometry(self.reference_positions[cell_nodes], points, weights,
+                                                     kin.axisymmetric)
 
         self.alive = np.ones(self.n_cells_own, dtype=np.uint8)      # 0: eroded cell (erosion_ratio)
         self._eroded_seen = 0                                       # eroded cells already reported
@@ -229,7 +230,7 @@ class ExplicitDynamics(CellSteps):
         # buffers
         self.a = np.zeros(self.n_own)
         self.du = np.zeros(self.n_own)
-        self._kept = np.zeros((2, self.n_own))     # v, du before the step in progress (_undo_step)
+        self.kept = np.zeros((2, self.n_own))      # v, du before the step in progress (_undo_step)
         self._fold = None                           # a step that would fold a cell, undone (_fold_back)
         self._flag = np.zeros(1, dtype=np.int32)    # _any_rank's buffer
         self.t = 0.0
@@ -238,15 +239,13 @@ class ExplicitDynamics(CellSteps):
         self.W_ext = 0.0
         self.KE0 = None
         self._failure = None
-        # selective mass scaling (run(mass_scaling_dt=...), :meth:`scale_mass`): the unscaled nodal mass,
-        # each owned cell's density factor (>= 1), the kinetic energy the added mass brought in [N mm]
-        # (local accumulator); mass_scaled: some cell of some rank has been scaled (the same on every
-        # rank); each cell's share of its nodes' mass and its Lame constants (element steps)
-        self.mass0 = self.mass.copy()
-        self.cell_scale = np.ones(self.n_cells_own)
-        self.E_mass = 0.0
-        self.mass_scaled = False
-        self._setup_cell_masses()
+        # the stable step per cell, selective mass scaling (run(mass_scaling_dt=...), :meth:`scale_mass`)
+        # and the erosion statistics: each cell's share of its nodes' mass and its Lame constants
+        cell_mass, lam, mu = cell_masses(material, self.density, self.regions, self.geometry.N, self.geometry.W)
+        self.cell_steps = CellSteps(self.reference_positions, self.u.x.array, cell_nodes, self.three_d,
+                                    kin.axisymmetric, element == "q1p0", stable_step, self.c, cell_c, cell_mass,
+                                    lam, mu, self.geometry.W, self.alive, self.erosion_ratio, self.mass,
+                                    self.v.x.array, V, mesh.topology.original_cell_index, self.comm)
         # drivers: contact pairs, prescribed motion and loads (and the steps that integrate them)
         self.contact = ContactSet(self)
         self.walls = RigidWalls(self)
@@ -278,7 +277,7 @@ class ExplicitDynamics(CellSteps):
         g, q = self.geometry, self.qmap
         # the arguments of fused_force.internal_force: persistent arrays, updated in place
         regions = self.material.point_layout(q.nq) if self.regions else None
-        self._force_args = (self.u.x.array, self.u_n.x.array, self._cell_nodes, g.dNdX, g.N, g.Rinv, g.W,
+        self.force_args = (self.u.x.array, self.u_n.x.array, self.cell_nodes, g.dNdX, g.N, g.Rinv, g.W,
                             self.element == "q1p0", self.alive, self.erosion_ratio, *self.material.kernel_args(),
                             regions, q.binv, q.eqps,
                             q.temperature, q.dt, q.tau_values, self._Fu, self._Finv, self._factor,
@@ -372,7 +371,7 @@ class ExplicitDynamics(CellSteps):
 
     def prescribed_work(self, set_id) -> float:
         """Work of the prescribed set's reaction since t = 0 [N mm] (collective)."""
-        return self._reduce(float(self.drivers.wset[set_id]), MPI.SUM)
+        return self.allreduce(float(self.drivers.wset[set_id]), MPI.SUM)
 
     def add_external_force(self, force):
         """An external nodal force ``force(t)`` [N] (t [s]): a callable returning the owned unrolled
@@ -423,7 +422,7 @@ class ExplicitDynamics(CellSteps):
         self.theta.x.array[: self._n_theta] = self._b_theta_arr * self._cellvol_inv
         self.theta.x.scatter_forward()
 
-    def _internal_force(self):
+    def internal_force(self):
         """Material update + commit at the current u, then f_int into self.f (owned). Returns, the
         same on every rank (one or two small collectives per step under MPI):
         ``ti.STEP_OK``; ``ti.STEP_FOLDS`` when a cell folds at u on some rank (a quadrature point's
@@ -433,13 +432,13 @@ class ExplicitDynamics(CellSteps):
         on some rank (``_failure`` says which, on every rank; the fused route has committed that
         update, the ufl route has not)."""
         if self.fused:
-            if not self._no_fold(fused_force.folded_cell(*self._force_args)):
+            if not self._no_fold(fused_force.folded_cell(*self.force_args)):
                 return ti.STEP_FOLDS
-            ok = fused_force.update_and_force(*self._force_args)
+            ok = fused_force.update_and_force(*self.force_args)
             if self.comm.size > 1:
                 dc.scatter_reverse_add(self._ffun)
             return self._agree(None if ok else f"non-finite stress or internal force at step {self.step_count + 1}")
-        if not self._no_fold(self._folded_cells()):
+        if not self._no_fold(self.folded_cells()):
             return ti.STEP_FOLDS
         if self.theta is not None:
             self._update_theta()
@@ -480,7 +479,7 @@ class ExplicitDynamics(CellSteps):
             self._failure = whys[0]
         return ti.STEP_NONFINITE
 
-    def _folded_cells(self, jmin=None):
+    def folded_cells(self, jmin=None):
         """The first owned cell that folds at the current u (-1: none), by the fused pass's test
         (:func:`fused_force.quad_folded_cells`, :func:`~fenics_plast.solvers.fused_force_hex.hex_folded_cells`);
         ``jmin`` (n_cells_own,), when given, gets each cell's smallest point Jacobian (+inf: eroded or
@@ -488,8 +487,8 @@ class ExplicitDynamics(CellSteps):
         g, u = self.geometry, self.u.x.array
         buf = np.empty(0) if jmin is None else jmin
         if self.three_d:
-            return int(hex_folded_cells(u, self._cell_nodes, g.dNdX, g.W, self.alive, self.erosion_ratio, buf))
-        return int(fused_force.quad_folded_cells(u, self._cell_nodes, g.dNdX, g.N, g.Rinv, g.W, self.alive,
+            return int(hex_folded_cells(u, self.cell_nodes, g.dNdX, g.W, self.alive, self.erosion_ratio, buf))
+        return int(fused_force.quad_folded_cells(u, self.cell_nodes, g.dNdX, g.N, g.Rinv, g.W, self.alive,
                                                  self.erosion_ratio, buf))
 
     def _fold_back(self, dt):
@@ -498,7 +497,7 @@ class ExplicitDynamics(CellSteps):
         to the last finite state (:meth:`_undo_step`). Rank-local; run() stops the run
         (:func:`~fenics_plast.solvers.collapse.fold_error`, collective)."""
         jmin = np.empty(self.n_cells_own)
-        self._folded_cells(jmin)
+        self.folded_cells(jmin)
         i = int(np.argmin(jmin)) if jmin.size else -1
         self._fold = dict(cell=i, j_next=float(jmin[i]) if i >= 0 else math.inf, dt=dt,
                           finite=bool(np.isfinite(self.u.x.array[: self.n_own]).all()))
@@ -515,11 +514,11 @@ class ExplicitDynamics(CellSteps):
 
     def _undo_step(self):
         """Back to the state before the step in progress, whose force pass failed: u = u_n (owned and
-        ghosts), v and du as kept before the step (``_kept``), no wall stop
+        ghosts), v and du as kept before the step (``kept``), no wall stop
         pending, theta = theta_n (ufl route); u_n stays equal to u."""
         self.u.x.array[:] = self.u_n.x.array
-        self.v.x.array[: self.n_own] = self._kept[0]
-        self.du[:] = self._kept[1]
+        self.v.x.array[: self.n_own] = self.kept[0]
+        self.du[:] = self.kept[1]
         self.walls.args[5][:] = 0
         if self.theta is not None:
             self.theta.x.array[:] = self.theta_n.x.array
@@ -529,7 +528,7 @@ class ExplicitDynamics(CellSteps):
         if self.has_drivers:
             self.drivers.initialize()
         else:
-            self._internal_force()
+            self.internal_force()
             np.multiply(self.f, self.free_minv, out=self.a)
             np.negative(self.a, out=self.a)
             self.KE0 = self.kinetic_energy()
@@ -542,8 +541,8 @@ class ExplicitDynamics(CellSteps):
         where (:meth:`_fold_back`)."""
         self.qmap.dt[0] = dt              # the material update's time increment (Johnson-Cook rate, heating)
         n = self.n_own
-        self._kept[0] = self.v.x.array[:n]           # v, du before the step (_undo_step)
-        self._kept[1] = self.du
+        self.kept[0] = self.v.x.array[:n]           # v, du before the step (_undo_step)
+        self.kept[1] = self.du
         if self.has_drivers:
             status = self.drivers.step(dt)
             if status != ti.STEP_OK:
@@ -560,7 +559,7 @@ class ExplicitDynamics(CellSteps):
             self.theta_n.x.array[:] = self.theta.x.array
         if self.comm.size > 1:
             self.u.x.scatter_forward()
-        status = self._internal_force()
+        status = self.internal_force()
         if status != ti.STEP_OK:
             self._step_failed(status, dt)   # back to the last finite u, v (no kick, not counted)
             return
@@ -581,7 +580,7 @@ class ExplicitDynamics(CellSteps):
         else:
             work = np.array([self.W_int])
             done, status = ti.advance(nsteps, dt, self.v.x.array, self.a, self.free_minv, self.du,
-                                      self.n_own, self._force_args, work, self.mass, self.walls.args, self._kept)
+                                      self.n_own, self.force_args, work, self.mass, self.walls.args, self.kept)
             self.W_int = float(work[0])
         for _ in range(done):
             self.t += dt
@@ -610,17 +609,18 @@ class ExplicitDynamics(CellSteps):
         d = dict(u=owned_keyed(self.u, kv), u_n=owned_keyed(self.u_n, kv), v=owned_keyed(self.v, kv),
                  a=Keyed(self.a, kv[:n]), du=Keyed(self.du, kv[:n]), f=Keyed(np.array(self.f), kv[:n]),
                  **{k: Keyed(v, kq) for k, v in self.qmap.state().items()}, t=self.t,
-                 step_count=self.step_count, KE0=self.KE0, W_int=self._reduce(self.W_int, MPI.SUM),
-                 W_ext=self._reduce(self.W_ext, MPI.SUM))
+                 step_count=self.step_count, KE0=self.KE0, W_int=self.allreduce(self.W_int, MPI.SUM),
+                 W_ext=self.allreduce(self.W_ext, MPI.SUM))
         if self.theta is not None:
             d.update(theta=owned_keyed(self.theta), theta_n=owned_keyed(self.theta_n))
         if self.has_drivers:
             d.update(self.drivers.state_dict(kv))
-        if self.mass_scaled:
+        cs = self.cell_steps
+        if cs.mass_scaled:
             from fenics_plast.checkpoint import cell_keys
             d.update(mass=Keyed(self.mass.copy(), kv[:n]),
-                     cell_scale=Keyed(self.cell_scale.copy(), cell_keys(self.mesh)[: self.n_cells_own]),
-                     E_mass=self._reduce(self.E_mass, MPI.SUM))
+                     cell_scale=Keyed(cs.cell_scale.copy(), cell_keys(self.mesh)[: self.n_cells_own]),
+                     E_mass=self.allreduce(cs.E_mass, MPI.SUM))
         if self.walls.active:
             d.update(E_wall=self.walls.energy())
         if self.erosion_ratio > 0.0:
@@ -692,28 +692,24 @@ class ExplicitDynamics(CellSteps):
             self.walls.restore(d["E_wall"], root)
         if self.erosion_ratio > 0.0:
             self.alive[:] = np.asarray(alive) > 0.5
-            self._eroded_seen = self.erosion_stats()["cells"]
+            self._eroded_seen = self.cell_steps.erosion_stats()["cells"]
         if scaled:                      # selective mass scaling: the mass, the cells' factors, E_mass
-            self.mass[:] = mass
+            self.cell_steps.restore_scaling(mass, cell_scale, float(d["E_mass"]) if root else 0.0)
             np.divide(1.0, self.mass, out=self.minv)
             self.free_minv[:] = self.minv
             self.free_minv[self.fixed] = 0.0
             self.free_minv[self.drivers.pdofs] = 0.0
-            self.cell_scale[:] = cell_scale
-            self._sqrt_scale = np.sqrt(self.cell_scale)
-            self.mass_scaled = True
-            self.E_mass = float(d["E_mass"]) if root else 0.0
             if self.contact.pairs:
                 self.contact.mass_changed()
 
-    def _reduce(self, x, op):
+    def allreduce(self, x, op):
         """Global reduction of a float (no MPI call in serial: it is checked every few steps)."""
         return x if self.comm.size == 1 else self.comm.allreduce(x, op=op)
 
     # ------------------------------------------------------------------------------------------
     def kinetic_energy(self):
         v = self.v.x.array[: self.n_own]
-        return self._reduce(0.5 * float(np.dot(self.mass * v, v)), MPI.SUM)
+        return self.allreduce(0.5 * float(np.dot(self.mass * v, v)), MPI.SUM)
 
     def elastic_energy(self):
         psi = self.material.energy(self.qmap.binv)
@@ -736,8 +732,8 @@ class ExplicitDynamics(CellSteps):
         w_int = self.comm.allreduce(self.W_int, op=MPI.SUM)
         w_ext = self.comm.allreduce(self.W_ext, op=MPI.SUM)
         ms = dict(mass_scaling=0.0, added_mass_kinetic=0.0)
-        if self.mass_scaled:
-            m = self.mass_scaling_stats()
+        if self.cell_steps.mass_scaled:
+            m = self.cell_steps.mass_scaling_stats()
             ms = dict(mass_scaling=m["energy"], added_mass_kinetic=m["kinetic"])
         e_ms = ms["mass_scaling"]
         e_wall = self.walls.energy() if self.walls.active else 0.0
@@ -757,7 +753,8 @@ class ExplicitDynamics(CellSteps):
         """Kinetic energy above which a run is taken as unstable: 1.5 KE0, with drivers
         1.5 (KE0 + |W_ext| + energy stored at the start) + a round-off floor (collective then)."""
         lim = self.drivers.ke_limit() if self.has_drivers else 1.5 * self.KE0 + 1e-30
-        return lim + 1.5 * self._reduce(self.E_mass, MPI.SUM) if self.mass_scaled else lim
+        cs = self.cell_steps
+        return lim + 1.5 * self.allreduce(cs.E_mass, MPI.SUM) if cs.mass_scaled else lim
 
     def max_eqps(self):
         loc = float(self.qmap.eqps.max()) if self.qmap.eqps.size else 0.0
@@ -765,7 +762,43 @@ class ExplicitDynamics(CellSteps):
 
     def nodal_positions(self):
         """Current positions of the owned+ghost dofs' nodes (n, gdim)."""
-        return self._X + self.u.x.array.reshape(-1, self.bs)
+        return self.reference_positions + self.u.x.array.reshape(-1, self.bs)
+
+    # -- the stable step and selective mass scaling (the cells' part: ``cell_steps``) --------------
+    def stable_dt(self):
+        """The stable step [s] on the current (deformed) mesh: the cells' step
+        (:meth:`CellSteps.stable_dt <fenics_plast.solvers.cell_steps.CellSteps.stable_dt>`, the minimum
+        over the cells and ranks of each cell's size estimate or element step) and, with contact pairs,
+        the smallest penalty-spring limit dt_c = min 2 sqrt(m_i / (eps A_i)) of the contact nodes,
+        combined as 1 / sqrt(1 / dt^2 + 1 / dt_c^2) (explicit_contact.py). Collective."""
+        dt = self.cell_steps.stable_dt()
+        if not self.contact.pairs:
+            return dt
+        dtc = self.contact.dt_stable
+        return 1.0 / math.sqrt(1.0 / dt ** 2 + 1.0 / dtc ** 2)
+
+    def scale_mass(self, target):
+        """Selective mass scaling to the stable step ``target`` [s] (collective; called by :meth:`run`
+        at every step-size check when ``mass_scaling_dt`` is set): the cells below it get density and
+        their nodes mass (:meth:`CellSteps.scale_mass <fenics_plast.solvers.cell_steps.CellSteps.scale_mass>`,
+        which accumulates the kinetic energy the added mass brings in, a term of the energy balance,
+        :meth:`energies`); the acceleration of the changed dofs is recomputed with the new mass, the
+        contact springs' step limit too. Returns the number of cells scaled now (all ranks)."""
+        n_low, ch = self.cell_steps.scale_mass(target)
+        if n_low == 0:
+            return 0
+        self.minv[ch] = 1.0 / self.mass[ch]
+        self.free_minv[ch] = self.minv[ch]
+        self.free_minv[self.fixed] = 0.0
+        if self.has_drivers:
+            d = self.drivers
+            self.free_minv[d.pdofs] = 0.0
+            self.a[ch] = (d.fload[ch] + d.fcon[ch] - self.f[ch]) * self.free_minv[ch]
+        else:
+            self.a[ch] = -self.f[ch] * self.free_minv[ch]
+        if self.contact.pairs:
+            self.contact.mass_changed()
+        return n_low
 
     # ------------------------------------------------------------------------------------------
     def run(self, end_time, dt_safety=default("analysis.dt_safety"), steps=None, rows=2, on_row=None, progress=10,
@@ -808,7 +841,7 @@ class ExplicitDynamics(CellSteps):
             if dt_fixed > dt_stable0:
                 raise RunError(Message(
                     f"time step end_time/steps = {dt_fixed:.4g} s ({int(steps)} steps) exceeds the stable "
-                    f"limit {dt_stable0:.4g} s ({self._limit_text(dt_stable0)}); use at least "
+                    f"limit {dt_stable0:.4g} s ({self.cell_steps.limit_text(dt_stable0)}); use at least "
                     f"{math.ceil(end_time / dt_stable0)} steps or drop ", Arg("steps")))
         if self.KE0 is None:
             self.initialize()
@@ -909,7 +942,7 @@ class ExplicitDynamics(CellSteps):
                         raise RunError(Message(
                             f"the fixed time step end_time/steps = {dt_fixed:.4g} s exceeds the stable limit "
                             f"{dt_stable:.4g} s of the deformed mesh at t = {self.t * 1e6:.4g} us (step "
-                            f"{self.step_count}, {self._limit_text(dt_stable)}): raise ", Arg("steps"),
+                            f"{self.step_count}, {self.cell_steps.limit_text(dt_stable)}): raise ", Arg("steps"),
                             " or drop it (adaptive step)"))
             while next_row < len(row_times) and self.t >= row_times[next_row] - eps_t:
                 if self.erosion_ratio > 0.0:
@@ -935,7 +968,7 @@ class ExplicitDynamics(CellSteps):
 
     def _log_erosion(self):
         """A log line when cells have been eroded since the last call (collective)."""
-        e = self.erosion_stats()
+        e = self.cell_steps.erosion_stats()
         if e["cells"] > self._eroded_seen:
             self.log(f"  t = {self.t * 1e6:8.3f} us  {e['cells'] - self._eroded_seen} cell(s) eroded (about to "
                      f"fold); {e['cells']} in all, {100 * e['volume_fraction']:.3g} % of the volume")
@@ -950,7 +983,7 @@ class ExplicitDynamics(CellSteps):
         loc = None
         if bad.size:
             i = int(bad[0])
-            loc = (int(self.mesh.topology.original_cell_index[i]), self._X[self._cell_dofs[i]].mean(axis=0).tolist())
+            loc = self.cell_steps.centre(i)
         found = [x for x in (self.comm.allgather(loc) if self.comm.size > 1 and not local else [loc]) if x is not None]
         return found[0] if found else None
 

@@ -112,7 +112,7 @@ class ExplicitContactPair:
         xdofs = np.unique(xdofs[xdofs < n])
         nodes = xdofs // bs
         self.dofs = np.ascontiguousarray(np.stack([nodes * bs + j for j in range(bs)], axis=1))   # (nc, dim)
-        self.X = np.ascontiguousarray(s._X[nodes, :bs])                                           # (nc, dim) [mm]
+        self.X = np.ascontiguousarray(s.reference_positions[nodes, :bs])                           # (nc, dim) [mm]
         # tributary areas int N_i w dA0 (degree 4: exact for N_i times the linear weight)
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags, metadata={"quadrature_degree": 4})(tag)
         ones = fem.Constant(mesh, PETSc.ScalarType((1.0,) * bs))

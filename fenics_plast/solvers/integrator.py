@@ -7,7 +7,7 @@ external loads) and the steps that integrate them together with contact. The int
 is :func:`fenics_plast.solvers.fused_force.internal_force` (or the UFL route in explicit.py); the
 contact forces are :func:`fenics_plast.solvers.contact_kernels.contact_forces` with the data of
 :mod:`fenics_plast.solvers.explicit_contact`. The stable step is
-:class:`fenics_plast.solvers.cell_steps.CellSteps`'s.
+:class:`fenics_plast.solvers.cell_steps.CellSteps`'s (``solver.cell_steps``).
 
 One step t_n -> t_{n+1} = t_n + dt (units mm, N, s, tonne/mm^3; arrays are the owned, unrolled
 dofs, 2 per node (3 on hexahedra, geometry "3d"): index bs node + component):
@@ -163,7 +163,7 @@ def kick(v, a, f, free_minv, du, dt, n, mass, walls):
 STEP_OK = -1
 #: status: the stress or force of the step is not finite (the quadrature state holds its update)
 STEP_NONFINITE = -2
-#: status (``ExplicitDynamics._internal_force``, :meth:`Drivers.step`): a cell folds, on some rank
+#: status (``ExplicitDynamics.internal_force``, :meth:`Drivers.step`): a cell folds, on some rank
 STEP_FOLDS = -3
 
 
@@ -353,7 +353,7 @@ class Drivers:
         self.W_load = 0.0
         self.E0_stored = 0.0           # elastic + contact energy at the first step [N mm]
         # round-off floor of the instability check: 1e-20 M c^2 (M the body's mass, c the wave speed)
-        mass = solver._reduce(float(solver.mass[0::self.bs].sum()), MPI.SUM)
+        mass = solver.allreduce(float(solver.mass[0::self.bs].sum()), MPI.SUM)
         self.ke_floor = 1e-20 * mass * solver.c ** 2
         self._build()
 
@@ -481,7 +481,7 @@ class Drivers:
             s.v.x.array[self.pdofs] = vals[:, 1]
             s.u.x.scatter_forward()
             s.v.x.scatter_forward()
-        s._internal_force()
+        s.internal_force()
         if self.loads:
             why = None
             try:
@@ -500,7 +500,7 @@ class Drivers:
     def step(self, dt):
         """One step of the solver (the kernels of :func:`advance_general`, with the internal force of
         either route and, under MPI, the ghost update of u). Returns the status of the solver's force
-        pass (``ExplicitDynamics._internal_force``, the same on every rank): a failed step stops
+        pass (``ExplicitDynamics.internal_force``, the same on every rank): a failed step stops
         before its loads, contact and kick, and the solver undoes its drift."""
         s, n = self.s, self.n
         d = self.step_data(s.t, dt, 1)
@@ -511,7 +511,7 @@ class Drivers:
             s.theta_n.x.array[:] = s.theta.x.array
         if s.comm.size > 1:
             s.u.x.scatter_forward()
-        status = s._internal_force()
+        status = s.internal_force()
         if status != STEP_OK:
             return status               # the solver goes back (before loads, contact, kick)
         if self.loads:
@@ -531,10 +531,10 @@ class Drivers:
         s = self.s
         d = self.step_data(s.t, dt, nsteps)
         work = np.array([s.W_int, self.W_load])
-        out = advance_general(nsteps, dt, s.v.x.array, s.a, s.free_minv, s.mass, s.du, self.n, s._force_args,
+        out = advance_general(nsteps, dt, s.v.x.array, s.a, s.free_minv, s.mass, s.du, self.n, s.force_args,
                               self.fload, d.fload_rows, self.pdofs, self.pkind, self.pset, d.pvals, self.pv_old,
                               self.r_old, self.reac, self.wset, self.fcon, s.contact.args(), d.trans, work,
-                              s.walls.args, s._kept)
+                              s.walls.args, s.kept)
         s.W_int, self.W_load = float(work[0]), float(work[1])
         return out
 
@@ -561,7 +561,7 @@ class Drivers:
         at rest has KE0 = 0) (collective)."""
         s = self.s
         loc = self.W_load + float(self.wset.sum()) + float(s.contact.acc[:, 1].sum())
-        return 1.5 * (s.KE0 + abs(s._reduce(loc, MPI.SUM)) + self.E0_stored) + self.ke_floor
+        return 1.5 * (s.KE0 + abs(s.allreduce(loc, MPI.SUM)) + self.E0_stored) + self.ke_floor
 
     # -- checkpoints -------------------------------------------------------------------------
     def state_dict(self, kv):
@@ -570,8 +570,8 @@ class Drivers:
         from fenics_plast.checkpoint import Keyed
         s, n = self.s, self.n
         d = dict(fload=Keyed(self.fload.copy(), kv[:n]), fcon=Keyed(self.fcon.copy(), kv[:n]),
-                 reac=Keyed(self.reac.copy(), kv[self.pdofs]), W_load=s._reduce(self.W_load, MPI.SUM),
-                 W_sets=[s._reduce(float(w), MPI.SUM) for w in self.wset], E0_stored=self.E0_stored)
+                 reac=Keyed(self.reac.copy(), kv[self.pdofs]), W_load=s.allreduce(self.W_load, MPI.SUM),
+                 W_sets=[s.allreduce(float(w), MPI.SUM) for w in self.wset], E0_stored=self.E0_stored)
         d.update(s.contact.state_dict(kv, s.comm))
         return d
 

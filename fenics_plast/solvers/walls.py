@@ -46,8 +46,9 @@ class RigidWalls:
         nodes = nodes[nodes < n_nodes]
         if not 0 <= component < s.bs:
             raise ValueError(f"{name}: component {component} out of range for {s.bs} components")
-        gap = s._X[nodes, component] - float(position)
-        tol = 1e-9 * max(float(np.ptp(s._X)) if s._X.size else 1.0, 1.0)
+        X = s.reference_positions
+        gap = X[nodes, component] - float(position)
+        tol = 1e-9 * max(float(np.ptp(X)) if X.size else 1.0, 1.0)
         lo = s.comm.allreduce(float(gap.min()) if gap.size else np.inf, op=MPI.MIN)
         hi = s.comm.allreduce(float(gap.max()) if gap.size else -np.inf, op=MPI.MAX)
         if lo >= -tol:
@@ -61,7 +62,7 @@ class RigidWalls:
                              f"a wall must start with the whole body on one side")
         dofs = nodes * s.bs + component
         # a node within round-off of the plane's far side touches it where it is (no jump at the start)
-        limit = float(position) - s._X[nodes, component]
+        limit = float(position) - X[nodes, component]
         limit = np.minimum(limit, 0.0) if side > 0 else np.maximum(limit, 0.0)
         keep = ~np.isin(dofs, s.fixed)                  # held dofs (sliding supports) do not move
         dofs, limit = dofs[keep], limit[keep]
@@ -77,7 +78,7 @@ class RigidWalls:
 
     def energy(self):
         """Energy the stops have taken so far [N mm], summed over the ranks (collective)."""
-        return self.s._reduce(float(self.args[3][0]), MPI.SUM)
+        return self.s.allreduce(float(self.args[3][0]), MPI.SUM)
 
     def restore(self, energy, root):
         """Set the accumulated energy of a checkpoint (the sum goes to rank 0)."""
