@@ -237,9 +237,9 @@ def test_force_pass_writes_nothing_for_a_folding_cell(case):
     if case == "ufl":
         assert s.internal_force() == STEP_FOLDS
     else:
-        assert fused_force.internal_force(*s.force_args) is False or cell is None
+        assert fused_force.internal_force(s.force_args) is False or cell is None
         if cell is not None:
-            assert fused_force.folded_cell(*s.force_args) >= 0
+            assert fused_force.folded_cell(s.force_args) >= 0
     for x, y in zip(before, _state(s)[3:]):               # f, binv, eqps, tau as they were
         np.testing.assert_array_equal(x, y)
 

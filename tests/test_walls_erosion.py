@@ -138,10 +138,8 @@ def _force_with(s, alive, ratio, state):
     """f of the compiled pass from the saved state ``state`` with ``alive`` and ``ratio``."""
     s.qmap.binv[:], s.qmap.eqps[:] = state
     s.alive[:] = alive
-    args = list(s.force_args)
-    args[9] = ratio
     from fenics_plast.solvers import fused_force
-    assert fused_force.internal_force(*args)
+    assert fused_force.internal_force(s.force_args._replace(erosion_ratio=ratio))
     return s.f.copy()
 
 

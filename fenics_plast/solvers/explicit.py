@@ -275,13 +275,15 @@ class ExplicitDynamics:
         self._f_all = self._ffun.x.array                            # owned + ghost, filled by the pass
         self.f = self._f_all[: self.n_own]
         g, q = self.geometry, self.qmap
-        # the arguments of fused_force.internal_force: persistent arrays, updated in place
-        regions = self.material.point_layout(q.nq) if self.regions else None
-        self.force_args = (self.u.x.array, self.u_n.x.array, self.cell_nodes, g.dNdX, g.N, g.Rinv, g.W,
-                            self.element == "q1p0", self.alive, self.erosion_ratio, *self.material.kernel_args(),
-                            regions, q.binv, q.eqps,
-                            q.temperature, q.dt, q.tau_values, self._Fu, self._Finv, self._factor,
-                            self.theta_cells, self._f_all)
+        # the arrays of the compiled pass: persistent, updated in place
+        model, lmbda, mu, law, hp, yield_tol = self.material.kernel_args()
+        self.force_args = fused_force.FusedPass(
+            u=self.u.x.array, u_n=self.u_n.x.array, cell_dofs=self.cell_nodes, dNdX=g.dNdX, N=g.N, Rinv=g.Rinv,
+            W=g.W, fbar=self.element == "q1p0", alive=self.alive, erosion_ratio=self.erosion_ratio, model=model,
+            lmbda=lmbda, mu=mu, law=law, hp=hp, yield_tol=yield_tol,
+            regions=self.material.point_layout(q.nq) if self.regions else None, binv=q.binv, eqps=q.eqps,
+            temp=q.temperature, dt=q.dt, tau=q.tau_values, Fu=self._Fu, Finv=self._Finv, factor=self._factor,
+            theta=self.theta_cells, f=self._f_all)
 
     def _setup_ufl(self, kin, vt):
         """Forms and expression of the dolfinx route (compiled once)."""
@@ -432,9 +434,9 @@ class ExplicitDynamics:
         on some rank (``_failure`` says which, on every rank; the fused route has committed that
         update, the ufl route has not)."""
         if self.fused:
-            if not self._no_fold(fused_force.folded_cell(*self.force_args)):
+            if not self._no_fold(fused_force.folded_cell(self.force_args)):
                 return ti.STEP_FOLDS
-            ok = fused_force.update_and_force(*self.force_args)
+            ok = fused_force.update_and_force(self.force_args)
             if self.comm.size > 1:
                 dc.scatter_reverse_add(self._ffun)
             return self._agree(None if ok else f"non-finite stress or internal force at step {self.step_count + 1}")

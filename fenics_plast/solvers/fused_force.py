@@ -41,6 +41,7 @@ erosion, the fold checks' bookkeeping) is :mod:`fenics_plast.solvers.fused_cells
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -269,65 +270,75 @@ def _force(tau, cell_dofs, dNdX, N, Rinv, W, Finv, factor, f):
     return sum_is_finite(f)
 
 
-@_njit
-def internal_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
-                   yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
-    """Kinematics, material update and commit, nodal internal force, in one call.
+class FusedPass(NamedTuple):
+    """The arrays of one compiled force pass (:func:`internal_force`), persistent and updated in place.
 
     Quadrilaterals (``CellGeometry``) or hexahedra (``fused_force_hex.HexGeometry``), told apart by the
     shape of Finv when numba compiles (see :func:`_cell_kinematics`).
+    """
+    u: np.ndarray               # (gdim n_nodes,) current displacement (owned + ghost) [mm]
+    u_n: np.ndarray             # (gdim n_nodes,) displacement of the last step [mm]
+    cell_dofs: np.ndarray       # (nc, 4 | 8) node indices of the owned cells (basix order)
+    dNdX: np.ndarray            # the geometry's arrays (CellGeometry / HexGeometry) ...
+    N: np.ndarray
+    Rinv: np.ndarray
+    W: np.ndarray               # ... quadrature weights x reference volume [mm^3]
+    fbar: bool                  # q1p0: the mean dilatation of each cell replaces the points'
+    alive: np.ndarray           # (nc,) uint8, 0 for an eroded cell: its points keep their committed
+    #                             state and stress and it adds no force
+    erosion_ratio: float        # a living cell whose smallest point Jacobian falls below erosion_ratio x
+    #                             its mean dilatation (about to fold) is eroded in this pass (0: never);
+    #                             element erosion is of this pass only: the UFL route has none
+    model: object               # model, lmbda, mu, law, hp, yield_tol: Material.kernel_args() (one
+    lmbda: object               # material), or the per-material tables of MaterialRegions.kernel_args()
+    mu: object                  # together with regions
+    law: object
+    hp: object
+    yield_tol: float
+    regions: object             # None (one material) or MaterialRegions.point_layout(nq): the points of each
+    #                             material and work arrays (fenics_plast.material.regions.update_regions)
+    binv: np.ndarray            # (n, 3, 3) committed b_e^-1, updated in place (explicit steps commit every update)
+    eqps: np.ndarray            # (n,) committed equivalent plastic strain
+    temp: np.ndarray            # (n,) committed temperature [K] (Johnson-Cook)
+    dt: np.ndarray              # (1,) the step's time increment [s] (Johnson-Cook rate and heating; 0 at start)
+    tau: np.ndarray             # (n, 3, 3) Kirchhoff stress out [MPa]
+    Fu: np.ndarray              # (n, 3, 3) work array (quadrilaterals: its off-block entries stay 0)
+    Finv: np.ndarray            # work array: (n, 5) on quadrilaterals (rr, rz, zr, zz, hh), (n, 3, 3) on hexahedra
+    factor: np.ndarray          # (n,) work array
+    theta: np.ndarray           # (nc,) mean dilatation out
+    f: np.ndarray               # (gdim n_nodes,) nodal internal force out [N]
 
-    u, u_n : (gdim n_nodes,) current and previous displacement (owned + ghost) [mm].
-    cell_dofs : (nc, 4 | 8) node indices of the owned cells (basix order).
-    dNdX, N, Rinv, W : the geometry's arrays (``CellGeometry`` / ``HexGeometry``).
-    alive : (nc,) uint8, 0 for an eroded cell: its points keep their committed state and stress and it
-        adds no force. erosion_ratio : a living cell whose smallest point Jacobian falls below
-        erosion_ratio x its mean dilatation (about to fold) is eroded in this call (:func:`erodes`;
-        0: never). Element erosion is of this pass only: the UFL route has none.
-    model, lmbda, mu, law, hp, yield_tol : ``Material.kernel_args()`` (one material), or the
-        per-material tables of ``MaterialRegions.kernel_args()`` together with ``regions``.
-    regions : None (one material) or ``MaterialRegions.point_layout(nq)``: the points of each
-        material and work arrays (several materials; :func:`fenics_plast.material.regions.update_regions`).
-    binv, eqps, temp : committed state (n,3,3), (n,), (n,) (temperature [K], Johnson-Cook), updated in
-        place (explicit steps commit every update).
-    dt : (1,) the step's time increment [s] (Johnson-Cook plastic strain rate and heating; set by the
-        solver before each step, 0 at the start).
-    tau : (n,3,3) Kirchhoff stress out [MPa]; Fu (n,3,3) work array (quadrilaterals: its off-block
-    entries stay 0); Finv (n,5) on quadrilaterals (rr, rz, zr, zz, hh), (n,3,3) on hexahedra, and
-    factor (n,): work arrays; theta (nc,) mean dilatation out; f (gdim n_nodes,) force out [N].
-    Returns True if the stress and the force are finite.
+
+@_njit
+def internal_force(p):
+    """Kinematics, material update and commit, nodal internal force, in one call on the arrays of the
+    :class:`FusedPass` p. Returns True if the stress and the force are finite.
 
     It is :func:`folded_cell` and, when no cell folds, :func:`update_and_force`: a step that would
     fold a cell (a point Jacobian <= 0, where the material update has no answer) returns False
     before anything of the state, the stress or the force is written (``alive`` aside: a cell eroded
     before the folding one stays eroded), so that the caller can go back to the last finite state.
     """
-    if _first_pass(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
-                   yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f) >= 0:
+    if _first_pass(*p) >= 0:
         return False
-    return _other_passes(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
-                         yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f)
+    return _other_passes(*p)
 
 
 @_njit
-def folded_cell(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
-                yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
-    """The first part of :func:`internal_force` (same arguments): -1, or the first owned cell that
+def folded_cell(p):
+    """The first part of :func:`internal_force` (same record): -1, or the first owned cell that
     folds at u (a living cell, not eroded now, with a point where det F <= 0 or, in axisymmetry,
     F_hh <= 0, or not finite). It is pass 1 over all cells (Fu, F^-1, factor, theta, erosion), which
     stops at that cell: no state, stress or force is written. Call :func:`update_and_force` next
     when it returns -1 (the MPI step: all ranks agree in between)."""
-    return _first_pass(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
-                       yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f)
+    return _first_pass(*p)
 
 
 @_njit
-def update_and_force(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
-                     yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f):
-    """The rest of :func:`internal_force` after :func:`folded_cell` returned -1 (same arguments):
+def update_and_force(p):
+    """The rest of :func:`internal_force` after :func:`folded_cell` returned -1 (same record):
     material update and commit, nodal force. Returns True if the stress and the force are finite."""
-    return _other_passes(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,
-                         yield_tol, regions, binv, eqps, temp, dt, tau, Fu, Finv, factor, theta, f)
+    return _other_passes(*p)
 
 
 def _first_pass(u, u_n, cell_dofs, dNdX, N, Rinv, W, fbar, alive, erosion_ratio, model, lmbda, mu, law, hp,

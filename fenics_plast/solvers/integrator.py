@@ -171,7 +171,7 @@ STEP_FOLDS = -3
 def advance(nsteps, dt, v, a, free_minv, du, n, force_args, work, mass, walls, kept):
     """``nsteps`` central-difference steps of size dt in one call (serial runs, fused force).
 
-    force_args : the arguments of :func:`fused_force.internal_force` (u and u_n first, f last),
+    force_args : the :class:`~fenics_plast.solvers.fused_force.FusedPass` of the force pass,
     whose arrays are updated in place; mass, walls: as :func:`stop_at_walls`.
     work : (1,) internal work [N mm], incremented step by step
     exactly as :meth:`ExplicitDynamics.step` does (so the result does not depend on how steps are
@@ -183,15 +183,15 @@ def advance(nsteps, dt, v, a, free_minv, du, n, force_args, work, mass, walls, k
     not finite: its material update is committed). The failed step is not among the steps done
     and its kick is not taken.
     """
-    u, u_n, f = force_args[0], force_args[1], force_args[-1]
+    u, u_n, f = force_args.u, force_args.u_n, force_args.f
     for k in range(nsteps):
         kept[0, :n] = v[:n]             # (slices: a call here slowed the 3-D loop by 10 %)
         kept[1, :n] = du[:n]
         w_old = kick_drift(v, a, f, du, u, u_n, dt, n, mass, walls)
-        bad = folded_cell(*force_args)
+        bad = folded_cell(force_args)
         if bad >= 0:
             return k, bad
-        if not update_and_force(*force_args):
+        if not update_and_force(force_args):
             return k, STEP_NONFINITE
         w_new = kick(v, a, f, free_minv, du, dt, n, mass, walls)
         work[0] += 0.5 * (w_old + w_new)
@@ -276,7 +276,7 @@ def advance_general(nsteps, dt, v, a, free_minv, mass, du, n, force_args, fload,
     kept (2, n): as :func:`advance`. Returns (steps done, status) as :func:`advance` (a failed step
     stops before its loads, contact and kick).
     """
-    u, u_n, f = force_args[0], force_args[1], force_args[-1]
+    u, u_n, f = force_args.u, force_args.u_n, force_args.f
     has_load = fload_rows.shape[1] > 0
     has_contact = contact_args.X.shape[0] > 0
     for k in range(nsteps):
@@ -284,10 +284,10 @@ def advance_general(nsteps, dt, v, a, free_minv, mass, du, n, force_args, fload,
         kept[1, :n] = du[:n]
         wi0, wl0 = drift_general(v, a, f, fload, fcon, mass, du, u, u_n, dt, n, pdofs, pkind, pvals[k],
                                  pv_old, r_old, walls)
-        bad = folded_cell(*force_args)
+        bad = folded_cell(force_args)
         if bad >= 0:
             return k, bad
-        if not update_and_force(*force_args):
+        if not update_and_force(force_args):
             return k, STEP_NONFINITE
         if has_load:
             fload[:] = fload_rows[k]
