@@ -193,7 +193,7 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
     t_end = steps[-1][1]
     if isinstance(mesh_data, SimpleNamespace):      # built by runner.prepare (before anything was written)
         b, t_setup = mesh_data, t_setup - mesh_data.setup_s
-        b.solver._log, b.solver.progress = output.log, output.progress(t_end, problem.name, what="t")
+        b.solver.log_to, b.solver.progress = output.log, output.progress(t_end, problem.name, what="t")
     else:
         b = build_static(problem, comm, mesh_data, log=output.log,
                          progress=output.progress(t_end, problem.name, what="t"))

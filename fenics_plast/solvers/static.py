@@ -71,7 +71,7 @@ class StaticSolver:
         self.element = element
         self.mixed = element == "q1p0"
         self.verbose = verbose
-        self._log = log
+        self.log_to = log          # where log lines go: a callable taking a line, or None (print)
         self.progress = progress    # fenics_plast.progress.Progress over the load factor (total 1), or None
         displacement = ("Lagrange", 1, (mesh.geometry.dim,))
         if self.mixed:
@@ -132,8 +132,8 @@ class StaticSolver:
     # -- problem definition -------------------------------------------------------------------
     def log(self, msg):
         if self.verbose and self.comm.rank == 0:
-            if self._log is not None:
-                self._log(msg)
+            if self.log_to is not None:
+                self.log_to(msg)
             else:
                 print(msg, flush=True)
 
