@@ -520,8 +520,8 @@ def _tool_shape_checks(d: str, tool, dim: int, where: str, v: _Validator):
         other = 5 - dim                      # 2 <-> 3
         names = [repr(s.name) for s in tool_shapes().values() if s.dims == (dim,)]
         alike = names[0] if len(names) == 1 else f"{', '.join(names[:-1])} or {names[-1]}"
-        v.fail(f"{d}.shape = {shape.name!r} is a {other}-D tool{' (mesh.geometry = ' + repr('3d') + ')' if other == 3 else ''}"
-               f": in {dim}-D use {alike}")
+        needs = " (mesh.geometry = '3d')" if other == 3 else ""
+        v.fail(f"{d}.shape = {shape.name!r} is a {other}-D tool{needs}: in {dim}-D use {alike}")
     for k in shape.required.get(dim, ()):
         if tool.get(k) is None:
             unit = shape.params[k].unit

@@ -271,7 +271,8 @@ def advance_general(nsteps, dt, v, a, free_minv, mass, du, n, force_args, fload,
 
     fload_rows (nsteps, n) or (nsteps, 0): the load vector at the step ends (none: fload stays);
     pvals (nsteps, np, 2) the prescribed values of each step; contact_args: the
-    :class:`~fenics_plast.solvers.contact_kernels.ContactArrays` of :func:`contact_forces`; trans (nsteps + 1, npairs, 2) the tool translations at
+    :class:`~fenics_plast.solvers.contact_kernels.ContactArrays` of :func:`contact_forces`;
+    trans (nsteps + 1, npairs, 2) the tool translations at
     the step times. work (2,) += internal work, load work [N mm]; walls: as :func:`stop_at_walls`;
     kept (2, n): as :func:`advance`. Returns (steps done, status) as :func:`advance` (a failed step
     stops before its loads, contact and kick).
