@@ -168,7 +168,7 @@ def test_fold_stops_at_the_last_finite_state():
         np.testing.assert_array_equal(a, b)
     # the step from there folds the cell named
     s.step(e.stats["dt_max"])
-    assert s._fold is not None and s.step_count == b2.solver.step_count
+    assert s.pending_fold is not None and s.step_count == b2.solver.step_count
 
 
 def test_ufl_route_and_fixed_steps_stop_alike():

@@ -87,8 +87,8 @@ from fenics_plast.schema import choices, default, key
 from fenics_plast.solvers import fused_force
 from fenics_plast.solvers.fused_force_hex import HexGeometry, hex_folded_cells
 from fenics_plast.solvers import integrator as ti
+from fenics_plast.solvers import time_stepping
 from fenics_plast.solvers.cell_steps import CellSteps, cell_masses
-from fenics_plast.solvers.collapse import collapse_error, fold_error
 from fenics_plast.solvers.explicit_contact import ContactSet
 from fenics_plast.solvers.walls import RigidWalls
 
@@ -231,14 +231,14 @@ class ExplicitDynamics:
         self.a = np.zeros(self.n_own)
         self.du = np.zeros(self.n_own)
         self.kept = np.zeros((2, self.n_own))      # v, du before the step in progress (_undo_step)
-        self._fold = None                           # a step that would fold a cell, undone (_fold_back)
+        self.pending_fold = None                           # a step that would fold a cell, undone (_fold_back)
         self._flag = np.zeros(1, dtype=np.int32)    # _any_rank's buffer
         self.t = 0.0
         self.step_count = 0
         self.W_int = 0.0          # local (owned) accumulators, reduced when reported
         self.W_ext = 0.0
         self.KE0 = None
-        self._failure = None
+        self.step_failure = None
         # the stable step per cell, selective mass scaling (run(mass_scaling_dt=...), :meth:`scale_mass`)
         # and the erosion statistics: each cell's share of its nodes' mass and its Lame constants
         cell_mass, lam, mu = cell_masses(material, self.density, self.regions, self.geometry.N, self.geometry.W)
@@ -477,8 +477,8 @@ class ExplicitDynamics:
         if not self._any_rank(why is not None):
             return ti.STEP_OK
         whys = [w for w in self.comm.allgather(why) if w] if self.comm.size > 1 else [why]
-        if self._failure is None:
-            self._failure = whys[0]
+        if self.step_failure is None:
+            self.step_failure = whys[0]
         return ti.STEP_NONFINITE
 
     def folded_cells(self, jmin=None):
@@ -501,7 +501,7 @@ class ExplicitDynamics:
         jmin = np.empty(self.n_cells_own)
         self.folded_cells(jmin)
         i = int(np.argmin(jmin)) if jmin.size else -1
-        self._fold = dict(cell=i, j_next=float(jmin[i]) if i >= 0 else math.inf, dt=dt,
+        self.pending_fold = dict(cell=i, j_next=float(jmin[i]) if i >= 0 else math.inf, dt=dt,
                           finite=bool(np.isfinite(self.u.x.array[: self.n_own]).all()))
         self._undo_step()
 
@@ -535,7 +535,7 @@ class ExplicitDynamics:
             np.negative(self.a, out=self.a)
             self.KE0 = self.kinetic_energy()
         if self.fused and self.comm.size == 1 and self.contact.chunkable:
-            self._advance(0, 0.0)          # compiles (or loads) the chunked loop now, not inside the run
+            self.advance(0, 0.0)          # compiles (or loads) the chunked loop now, not inside the run
 
     def step(self, dt):
         """One central-difference step of size dt [s] (velocity-Verlet form, see module doc). A step
@@ -572,7 +572,7 @@ class ExplicitDynamics:
         self.t += dt
         self.step_count += 1
 
-    def _advance(self, nsteps, dt):
+    def advance(self, nsteps, dt):
         """``nsteps`` steps of size dt in one compiled call (serial fused route; same arithmetic as
         ``nsteps`` calls of :meth:`step`, which it stops at the first failed step as :meth:`step`
         does)."""
@@ -588,8 +588,8 @@ class ExplicitDynamics:
             self.t += dt
         self.step_count += done
         if status != ti.STEP_OK:          # the next step failed: not taken (serial)
-            if status == ti.STEP_NONFINITE and self._failure is None:
-                self._failure = f"non-finite stress or internal force at step {self.step_count + 1}"
+            if status == ti.STEP_NONFINITE and self.step_failure is None:
+                self.step_failure = f"non-finite stress or internal force at step {self.step_count + 1}"
             self._step_failed(ti.STEP_FOLDS if status >= 0 else status, dt)
 
     # ------------------------------------------------------------------------------------------
@@ -751,7 +751,7 @@ class ExplicitDynamics:
         e.update(ms)
         return e
 
-    def _ke_limit(self):
+    def ke_limit(self):
         """Kinetic energy above which a run is taken as unstable: 1.5 KE0, with drivers
         1.5 (KE0 + |W_ext| + energy stored at the start) + a round-off floor (collective then)."""
         lim = self.drivers.ke_limit() if self.has_drivers else 1.5 * self.KE0 + 1e-30
@@ -807,7 +807,8 @@ class ExplicitDynamics:
             max_steps=None, bar=None, checkpoint_every=default("output.checkpoint_every", analysis="explicit"),
             on_checkpoint=None, resume=None, dt_floor=default("analysis.dt_floor"),
             mass_scaling_dt=default("analysis.mass_scaling_dt")):
-        """Integrate to ``end_time`` [s].
+        """Integrate to ``end_time`` [s]: :func:`fenics_plast.solvers.time_stepping.drive` (the step size, the
+        rows, checks, progress and checkpoints; this class takes one step, :meth:`step`, or a chunk, :meth:`advance`).
 
         steps=None: dt = dt_safety * dt_stable, re-estimated every ``reestimate_every`` steps and
         shortened to land on the history-row times; steps=N: fixed dt = end_time / N, refused with a
@@ -834,141 +835,10 @@ class ExplicitDynamics:
         ``str()`` words them so, a driver in its own terms (``RunError.worded``).
         Returns a dict of run statistics.
         """
-        for name, value in (("dt_safety", dt_safety), ("dt_floor", dt_floor), ("mass_scaling_dt", mass_scaling_dt)):
-            if not key(f"analysis.{name}").in_range(value):      # the ranges are the schema's
-                raise RunError(f"{name} must satisfy {key(f'analysis.{name}').range_text(name)}, got {value}")
-        dt_stable0 = self.stable_dt() if resume is None else resume["dt_stable0"]
-        if steps is not None:
-            dt_fixed = end_time / int(steps)
-            if dt_fixed > dt_stable0:
-                raise RunError(Message(
-                    f"time step end_time/steps = {dt_fixed:.4g} s ({int(steps)} steps) exceeds the stable "
-                    f"limit {dt_stable0:.4g} s ({self.cell_steps.limit_text(dt_stable0)}); use at least "
-                    f"{math.ceil(end_time / dt_stable0)} steps or drop ", Arg("steps")))
-        if self.KE0 is None:
-            self.initialize()
-        row_times = np.linspace(0.0, end_time, max(int(rows), 2))
-        eps_t = 1e-12 * end_time
-        # a run that goes on from t > 0 (a second call) skips the row times behind it
-        next_row = max(1, int(np.searchsorted(row_times, self.t + eps_t, side="right")))
-        if on_row is not None and resume is None and self.t == 0.0:
-            on_row(self, 0.0)
-        dt_stable = dt_stable0
-        dt_min, dt_max = np.inf, 0.0
-        prog_times = np.linspace(0.0, end_time, progress + 1)[1:] if progress else []
-        next_prog = int(np.searchsorted(prog_times, self.t + eps_t, side="right")) if progress else 0
-        if resume is not None:
-            next_row, next_prog, dt_stable = resume["next_row"], resume["next_prog"], resume["dt_stable"]
-            dt_min, dt_max = resume["dt_min"], resume["dt_max"]
-        last_checkpoint = steps0 = self.step_count
-        t_wall0 = time.perf_counter()
+        return time_stepping.drive(self, end_time, dt_safety, steps, rows, on_row, progress, max_steps, bar,
+                                   checkpoint_every, on_checkpoint, resume, dt_floor, mass_scaling_dt)
 
-        def stats(dt_stable_final):
-            wall = time.perf_counter() - t_wall0
-            return dict(steps=self.step_count, dt_min=dt_min, dt_max=dt_max, dt_stable_initial=dt_stable0,
-                        dt_stable_final=dt_stable_final, wall_s=wall,
-                        time_per_step_s=wall / max(self.step_count - steps0, 1))
-        # with contact against tools whose gap is Python code (gap_np), the serial run goes step by step
-        chunked = self.fused and self.comm.size == 1 and self.contact.chunkable
-        while self.t < end_time - eps_t and (max_steps is None or self.step_count < max_steps):
-            if steps is not None:
-                dt = min(dt_fixed, end_time - self.t)
-            else:
-                if self.step_count % self.reestimate_every == 0:
-                    if mass_scaling_dt > 0.0:
-                        self.scale_mass(mass_scaling_dt)
-                    dt_stable = self.stable_dt()
-                    if dt_stable < dt_floor * dt_stable0:
-                        e = collapse_error(self, dt_stable, dt_stable0, dt_floor, mass_scaling_dt)
-                        e.stats = stats(dt_stable)
-                        e.loop = dict(next_row=next_row, next_prog=next_prog, dt_stable=dt_stable,
-                                      dt_stable0=dt_stable0, dt_min=dt_min, dt_max=dt_max)
-                        raise e
-                # equal steps to the next row time, none above dt_safety x dt_stable: k = the steps
-                # left to it, dt = what is left / k (the same dt at each step of the interval while
-                # dt_stable holds). Not a long step and a sliver before each row: central differences
-                # with periodically varying steps are unstable below the stable step (parametric
-                # resonance of the highest modes; an elastic bar with a row every 2.5 steps blew up)
-                remaining = row_times[next_row] - self.t
-                k_row = max(1, math.ceil(remaining / (dt_safety * dt_stable) - 1e-9))
-                dt = remaining / k_row
-            # serial fused route: the steps up to the next check, with this dt, in one compiled call;
-            # the last step before a row time is taken alone (it lands on the row time exactly)
-            n_chunk = 1
-            if chunked:
-                if steps is None:
-                    to_row = k_row - 1
-                else:
-                    to_row = int((min(row_times[next_row], end_time) - self.t) / dt - 1.5)
-                n_chunk = min(self.reestimate_every - self.step_count % self.reestimate_every, to_row)
-                if max_steps is not None:
-                    n_chunk = min(n_chunk, max_steps - self.step_count)
-            try:
-                if n_chunk > 1:
-                    self._advance(n_chunk, dt)
-                else:
-                    self.step(dt)
-            except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:
-                # (rank-local: no collective in the message)
-                raise RunError(self._unstable_message(dt, f"step failed: {e}", dt_stable, local=True)) from None
-            dt_min, dt_max = min(dt_min, dt), max(dt_max, dt)
-            if self._fold is not None:
-                # the next step would fold a cell (every rank knows): stop at the last finite state
-                e = fold_error(self, self._fold, dt_stable0, dt_floor, mass_scaling_dt,
-                               step_key=Message(Arg("dt_safety"), f", now {dt_safety:g}") if steps is None else
-                               Message("more ", Arg("steps"), f" than {int(steps)}"))
-                self._fold = None
-                e.stats = stats(e.dt_stable)
-                e.loop = dict(next_row=next_row, next_prog=next_prog, dt_stable=dt_stable,
-                              dt_stable0=dt_stable0, dt_min=dt_min, dt_max=dt_max)
-                raise e
-            if self._failure is not None:
-                # a non-finite stress or force (every rank knows): the step was not taken
-                raise RunError(self._unstable_message(dt, self._failure, dt_stable))
-            if self.step_count % self.reestimate_every == 0:
-                if bar is not None:
-                    bar.update(self.t * 1e6, step=self.step_count, dt_ns=dt * 1e9)
-                ke = self.kinetic_energy()
-                if not math.isfinite(ke) or ke > self._ke_limit():
-                    why = f"kinetic energy {ke:.4g} N mm vs initial {self.KE0:.4g} N mm"
-                    fail = self.comm.allgather(self._failure)
-                    fail = [f for f in fail if f]
-                    if fail:
-                        why += f"; {fail[0]}"
-                    raise RunError(self._unstable_message(dt, why, dt_stable))
-                if steps is not None:
-                    if mass_scaling_dt > 0.0:
-                        self.scale_mass(mass_scaling_dt)
-                    dt_stable = self.stable_dt()
-                    if dt_fixed > dt_stable:       # the mesh has crushed below the fixed step's size
-                        raise RunError(Message(
-                            f"the fixed time step end_time/steps = {dt_fixed:.4g} s exceeds the stable limit "
-                            f"{dt_stable:.4g} s of the deformed mesh at t = {self.t * 1e6:.4g} us (step "
-                            f"{self.step_count}, {self.cell_steps.limit_text(dt_stable)}): raise ", Arg("steps"),
-                            " or drop it (adaptive step)"))
-            while next_row < len(row_times) and self.t >= row_times[next_row] - eps_t:
-                if self.erosion_ratio > 0.0:
-                    self._log_erosion()
-                if on_row is not None:
-                    on_row(self, self.t)
-                next_row += 1
-            while next_prog < len(prog_times) and self.t >= prog_times[next_prog] - eps_t:
-                e = self.energies()
-                if not math.isfinite(e["kinetic"]) or e["kinetic"] > self._ke_limit():
-                    raise RunError(self._unstable_message(dt, f"kinetic energy {e['kinetic']:.4g}"))
-                self.log(f"  t = {self.t * 1e6:8.3f} us  step {self.step_count:6d}  dt = {dt:.3e} s  "
-                         f"KE = {e['kinetic'] / 1e3:9.3f} J  W_int = {e['internal_work'] / 1e3:9.3f} J  "
-                         f"max eqps = {self.max_eqps():.3f}  energy error = {e['balance_error']:.2e}",
-)
-                next_prog += 1
-            if on_checkpoint is not None and checkpoint_every > 0 and \
-                    self.step_count - last_checkpoint >= checkpoint_every:
-                on_checkpoint(self, dict(next_row=next_row, next_prog=next_prog, dt_stable=dt_stable,
-                                         dt_stable0=dt_stable0, dt_min=dt_min, dt_max=dt_max))
-                last_checkpoint = self.step_count
-        return stats(self.stable_dt())
-
-    def _log_erosion(self):
+    def log_erosion(self):
         """A log line when cells have been eroded since the last call (collective)."""
         e = self.cell_steps.erosion_stats()
         if e["cells"] > self._eroded_seen:
@@ -989,7 +859,7 @@ class ExplicitDynamics:
         found = [x for x in (self.comm.allgather(loc) if self.comm.size > 1 and not local else [loc]) if x is not None]
         return found[0] if found else None
 
-    def _unstable_message(self, dt, why, dts=None, local=False) -> Message:
+    def unstable_message(self, dt, why, dts=None, local=False) -> Message:
         """The message of a run gone unstable (collective unless ``local``), the remedies naming the
         solver's arguments (:class:`~fenics_plast.errors.Message`)."""
         dts = self.stable_dt() if dts is None else dts

@@ -1,4 +1,5 @@
-"""Quasi-static finite-strain solver: PETSc SNES Newton, load increments with cut-back.
+"""Quasi-static finite-strain solver: one load increment by PETSc SNES Newton (:meth:`StaticSolver.solve_increment`);
+the increments, cut-back and retries are driven by :mod:`fenics_plast.solvers.load_stepping`.
 
 Unknowns: Q1 displacement u and (element "q1p0") a DG0 dilatation theta (F-bar, Q1/P0 of
 docs/DESIGN.md); element "q1" is plain Q1 (theta := J). The residual callback evaluates the
@@ -32,7 +33,7 @@ from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 
 from fenics_plast.errors import RunError
 from fenics_plast.schema import choices, default
-from fenics_plast.solvers import krylov
+from fenics_plast.solvers import krylov, load_stepping
 
 _prefix_counter = itertools.count()
 
@@ -119,7 +120,7 @@ class StaticSolver:
                             linear_rtol=linear_rtol, linear_max_iterations=linear_max_iterations)
         self._condensed = None      # the python PC of linear_solver "gamg" with q1p0
         self._ksp_iterations = []   # GMRES iterations per Newton step (linear_solver "gamg", q1)
-        self._setup_done = False
+        self.is_set_up = False     # setup() done: forms compiled, SNES and its linear solver built
         # records
         self.increments = []    # dicts per converged increment
         self.norms = []         # residual norms of the current solve
@@ -261,7 +262,7 @@ class StaticSolver:
         snes.getKSP().setFromOptions()
         if gamg:
             self._setup_gamg()
-        self._setup_done = True
+        self.is_set_up = True
 
     def _setup_gamg(self):
         """Rigid-body modes on the Jacobian (q1), or the condensing python PC (q1p0)."""
@@ -301,7 +302,7 @@ class StaticSolver:
         if getattr(self, "snes", None) is not None:
             self.snes.destroy()
             self.snes = None
-        self._setup_done = False
+        self.is_set_up = False
 
     def __del__(self):
         try:
@@ -309,7 +310,7 @@ class StaticSolver:
         except Exception:       # interpreter shutdown: PETSc may be gone already
             pass
 
-    def _set_linesearch(self, kind):
+    def set_linesearch(self, kind):
         PETSc.Options()[self.prefix + "snes_linesearch_type"] = kind
         self.snes.setFromOptions()
 
@@ -407,7 +408,7 @@ class StaticSolver:
         body (the first increment of a load step: imposing a large increment on the boundary nodes
         alone can invert the cells next to them). Otherwise: the converged state with the Dirichlet
         values at lam."""
-        if not self._setup_done:
+        if not self.is_set_up:
             self.setup()
         lam_n = self.lam_converged
         self.set_load(lam)
@@ -462,14 +463,14 @@ class StaticSolver:
         except Exception:  # noqa: BLE001
             return ""
 
-    def _failure(self, message):
+    def failure(self, message):
         """RunError ending with what converged so far, carrying it in its results."""
         return RunError(f"{message} {len(self.increments)} increments converged up to load factor "
                         f"{self.lam_converged:.6g}.",
                         results={"converged": False, "increments": len(self.increments),
                                  "load_factor": self.lam_converged})
 
-    def _raise_mumps_workspace(self):
+    def raise_mumps_workspace(self):
         """After a failed solve: if MUMPS ran out of workspace (INFOG(1) in MUMPS_WORKSPACE_ERRORS),
         double ICNTL(14) (extra workspace in %, at least 20) and return True: retry the same step.
         Raises RunError when ICNTL(14) would exceed MUMPS_MAX_ICNTL14; False for any other failure."""
@@ -485,7 +486,7 @@ class StaticSolver:
             return False
         new = max(2 * icntl14, 20)
         if new > MUMPS_MAX_ICNTL14:
-            raise self._failure(
+            raise self.failure(
                 f"static solver: the direct solver MUMPS ran out of workspace (INFOG(1) = {info}) at load "
                 f"factor {self.lam:.6g} even with ICNTL(14) = {icntl14} % extra workspace: the linear system "
                 f"is extremely ill-conditioned (Poisson's ratio too close to 0.5, or a huge contact penalty?).")
@@ -535,7 +536,7 @@ class StaticSolver:
         ICNTL(14)."""
         from fenics_plast.checkpoint import Keyed, owned_keyed
         kw, kq = self.checkpoint_keys()
-        icntl = PETSc.Options().getInt(self.prefix + "mat_mumps_icntl_14", 100) if self._setup_done else 100
+        icntl = PETSc.Options().getInt(self.prefix + "mat_mumps_icntl_14", 100) if self.is_set_up else 100
         d = dict(w=owned_keyed(self.w, kw), w_n=owned_keyed(self.w_n, kw), w_nm1=owned_keyed(self.w_nm1, kw),
                  **{k: Keyed(v, kq) for k, v in self.qmap.state().items()},
                  lam_converged=self.lam_converged, force_scale=self.force_scale,
@@ -560,7 +561,7 @@ class StaticSolver:
         from fenics_plast import checkpoint as ck
         ck.require(d, ["w", "w_n", "w_nm1", *self.qmap.state(), "lam_converged", "force_scale", "roundoff_floor",
                        "total_iterations", "increments", "cutbacks"], "static solver")
-        if not self._setup_done:
+        if not self.is_set_up:
             self.setup()
         kw, kq = self.checkpoint_keys()
         why = None
@@ -596,81 +597,10 @@ class StaticSolver:
             max_increment=default("analysis.max_increment"), lam_end=1.0, callback=None, growth=1.5,
             fast_iterations=4, checkpoint_every=default("output.checkpoint_every", analysis="static"),
             on_checkpoint=None, resume=None):
-        """Drive lam from its current value to lam_end.
-
-        callback(solver) is called after every converged increment; returning True stops the run.
-        Raises RunError below min_increment (all converged increments are kept/written).
-        Returns True when lam_end was reached, False when the callback stopped the run.
-        ``on_checkpoint(solver, loop)`` is called after the callback of every ``checkpoint_every``-th
-        converged increment (counted over the solver's life; 0: never), ``loop`` holding this loop's
-        variables (JSON-able); ``resume=loop`` continues the run() call that saved it (after
-        :meth:`load_state`; ignored by a run() call to another lam_end). The defaults of the increments,
-        tolerances and checkpoint interval are the schema's (:func:`fenics_plast.schema.default`).
-        """
-        if not self._setup_done:
-            self.setup()
-        span = lam_end - self.lam_converged
-        dl = min(span / increments, max_increment)
-        prev_step = None
-        if resume is not None and resume.get("lam_end") == lam_end:
-            dl, prev_step = resume["dl"], resume["prev_step"]
-        # a new load step from a loaded state: its first increment takes the tangent predictor
-        # (solve_increment), the later ones extrapolate the step's own increments
-        tangent = prev_step is None and self.lam_converged > 0.0
-        if self.progress is not None:
-            self.progress.update(self.lam_converged, inc=len(self.increments), newton=0,
-                                 newton_total=self.total_iterations, cutbacks=len(self.cutbacks))
-        while self.lam_converged < lam_end - 1e-12 * max(1.0, abs(lam_end)):
-            dl = min(dl, max_increment, lam_end - self.lam_converged)
-            lam = self.lam_converged + dl
-            t0 = time.perf_counter()
-            ok, its, why = self.solve_increment(lam, prev_step, tangent)
-            while not ok and self._raise_mumps_workspace():   # same step with more MUMPS workspace
-                ok, its, why = self.solve_increment(lam, prev_step, tangent)
-            if not ok:
-                # the elastic/plastic switch makes the residual non-smooth: a damped line search
-                # can stall where full Newton steps go through, and full steps can overshoot where
-                # backtracking helps. Retry the same step once with the other kind.
-                other = "bt" if self.options["linesearch"] == "basic" else "basic"
-                self.log(f"  retry at load {lam:.6g} with line search {other} ({why})")
-                self.linesearch_retries.append(dict(load_factor=lam, step=dl, iterations=its, reason=why,
-                                                    retry=other))
-                self._set_linesearch(other)
-                try:
-                    ok, its, why = self.solve_increment(lam, prev_step, tangent)
-                finally:
-                    self._set_linesearch(self.options["linesearch"])
-            dt = time.perf_counter() - t0
-            norms = list(self.norms)
-            if ok:
-                self.commit()
-                rec = dict(increment=len(self.increments) + 1, load_factor=lam, step=dl,
-                           iterations=its, norms=norms, time_s=dt)
-                self.increments.append(rec)
-                self.log(f"increment {rec['increment']:4d}  load {lam:.6g} (step {dl:.3g})  "
-                         f"newton {its:2d}  |R| {norms[0]:.3e} -> {norms[-1]:.3e}  ({dt:.2f} s)")
-                if self.progress is not None:
-                    self.progress.update(lam, inc=rec["increment"], newton=its,
-                                         newton_total=self.total_iterations, cutbacks=len(self.cutbacks))
-                prev_step, tangent = dl, False
-                if callback is not None and callback(self):
-                    return False
-                if its <= fast_iterations:
-                    dl *= growth
-                if on_checkpoint is not None and checkpoint_every > 0 and \
-                        len(self.increments) % checkpoint_every == 0:
-                    on_checkpoint(self, dict(dl=dl, prev_step=prev_step, lam_end=lam_end))
-            else:
-                self.log(f"  cut back at load {lam:.6g} (step {dl:.3g}): {why}, "
-                         f"{its} iterations, |R| = {', '.join(f'{n:.2e}' for n in norms[-4:])}")
-                self.restore()
-                self.cutbacks.append(dict(load_factor=lam, step=dl, iterations=its, reason=why))
-                dl *= 0.5
-                if dl < min_increment * (1 - 1e-9):
-                    raise self._failure(
-                        f"static solver: no convergence at load factor {lam:.6g} even with the "
-                        f"smallest step {2 * dl:.3g} (min_increment {min_increment:g}): {why}.")
-        return True
+        """Drive lam from its current value to lam_end: :func:`fenics_plast.solvers.load_stepping.drive`
+        (the increments, cut-back and retries; this class solves one increment, :meth:`solve_increment`)."""
+        return load_stepping.drive(self, increments, min_increment, max_increment, lam_end, callback, growth,
+                                   fast_iterations, checkpoint_every, on_checkpoint, resume)
 
     # -- post-processing ----------------------------------------------------------------------
     def internal_force(self):
