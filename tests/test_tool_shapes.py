@@ -175,3 +175,47 @@ def test_box_closed_form():
     g2, N2 = flat.gap_np(x[[0, 2, 4, 5], :2], 0.0)
     np.testing.assert_allclose(g2, g[[0, 2, 4, 5]], atol=1e-14)
     np.testing.assert_allclose(N2, N[[0, 2, 4, 5], :2], atol=1e-14)
+
+
+def _scene_with_box(scene, plane_block, box_block, tmp_path, name):
+    """``scene``'s text with its mesh file made absolute and its plane tool replaced by a box, written to
+    tmp_path; (plane scene path, box scene path)."""
+    text = scene.read_text()
+    mesh = next(ln.split('"')[1] for ln in text.splitlines() if ln.startswith("file = "))
+    text = text.replace(f'file = "{mesh}"', f'file = "{(scene.parent / mesh).resolve()}"')
+    assert plane_block in text
+    paths = (tmp_path / f"{name}_plane.toml", tmp_path / f"{name}_box.toml")
+    paths[0].write_text(text)
+    paths[1].write_text(text.replace(plane_block, box_block))
+    return paths
+
+
+@pytest.mark.parametrize("case", ["static", "explicit"])
+def test_a_box_whose_face_is_the_plane_acts_as_the_plane(case, tmp_path):
+    """A wide box (edge radius 0) whose lower (upper) face lies on a scene's plane tool gives the plane's
+    run: the frictionless coarse ring compression (static: the box through the UFL contact and Newton) and
+    the Taylor bar against its wall (explicit: the compiled gap), to round-off. The box goes through the
+    scene keys, validation, build and both solvers."""
+    import scene_runs
+    if case == "static":
+        scene, out_cols = REPO / "demos" / "ring_compression.toml", ("die_force_kN", "inner_radius_mm")
+        plane = 'shape = "plane"\npoint = [0.0, 10.0]\nnormal = [0.0, -1.0]\n'
+        box = 'shape = "box"\ncenter = [0.0, 15.0]\nhalf_sizes = [100.0, 5.0]\n'
+        sets = ["mesh.parameters.cells_radial=6", "mesh.parameters.cells_axial=4", "analysis.increments=10",
+                "analysis.max_increment=0.1"]
+        sets += [f"contact.{p}.friction=0.0" for p in ("die", "die_inner", "die_outer")]
+    else:
+        scene, out_cols = REPO / "demos" / "taylor_bar_wall.toml", ("length_mm", "radius_mm", "wall_force_kN")
+        plane = 'shape = "plane"\npoint = [0.0, 0.0]\nnormal = [0.0, 1.0]\n'
+        box = 'shape = "box"\ncenter = [0.0, -5.0]\nhalf_sizes = [100.0, 5.0]\n'
+        sets = ["analysis.end_time=10"]
+    sets += ["output.xdmf=false", "output.plots=false"]
+    runs = {}
+    for path in _scene_with_box(scene, plane, box, tmp_path, case):
+        out = tmp_path / path.stem
+        runs[path.stem] = (scene_runs.run_scene(path, out, *sets), scene_runs.history(out))
+    (_, hp), (_, hb) = runs[f"{case}_plane"], runs[f"{case}_box"]
+    assert len(hp) == len(hb) > 2
+    for col in out_cols:
+        assert np.abs(hp[col]).max() > 0
+        np.testing.assert_allclose(hb[col], hp[col], rtol=1e-9, atol=1e-9 * np.abs(hp[col]).max())

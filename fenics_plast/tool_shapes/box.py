@@ -14,7 +14,13 @@ prm = [c (dim), b (dim), r]: the centre at t = 0 [mm], the half sizes of the cor
 """
 from fenics_plast.scene_key import OPTIONAL, REQUIRED, Key
 from fenics_plast.tool_shapes import ToolShape, vector
-from fenics_plast.tool_shapes.ops import TINY, ge, lt, maximum, sign, sqrt, where
+from fenics_plast.tool_shapes.ops import TINY, ge, lt, maximum, sqrt, where
+
+
+def _sign(y):
+    """y / |y| (guarded: 0 at y = 0), a smooth expression rather than a conditional: FFCx cannot factor the
+    Jacobian of a conditional whose one branch is a constant and the other depends on the unknowns."""
+    return y / sqrt(y * y + TINY)
 
 
 def gap(prm, x, d):
@@ -25,17 +31,17 @@ def gap(prm, x, d):
         o0, o1 = maximum(q0, 0.0), maximum(q1, 0.0)
         out = sqrt(o0 * o0 + o1 * o1 + TINY)
         deepest = maximum(q0, q1)
-        v = where(lt(0.0, deepest), (out - r, sign(y0) * o0 / out, sign(y1) * o1 / out),
-                  where(ge(q0, q1), (deepest - r, sign(y0), 0.0), (deepest - r, 0.0, sign(y1))))
+        v = where(lt(0.0, deepest), (out - r, _sign(y0) * o0 / out, _sign(y1) * o1 / out),
+                  where(ge(q0, q1), (deepest - r, _sign(y0), 0.0), (deepest - r, 0.0, _sign(y1))))
         return v[0], (v[1], v[2])
     y0, y1, y2 = x[0] - (prm[0] + d[0]), x[1] - (prm[1] + d[1]), x[2] - (prm[2] + d[2])
     q0, q1, q2, r = abs(y0) - prm[3], abs(y1) - prm[4], abs(y2) - prm[5], prm[6]
     o0, o1, o2 = maximum(q0, 0.0), maximum(q1, 0.0), maximum(q2, 0.0)
     out = sqrt(o0 * o0 + o1 * o1 + o2 * o2 + TINY)
     deepest = maximum(q0, maximum(q1, q2))
-    v = where(lt(0.0, deepest), (out - r, sign(y0) * o0 / out, sign(y1) * o1 / out, sign(y2) * o2 / out),
-              where(ge(q0, maximum(q1, q2)), (deepest - r, sign(y0), 0.0, 0.0),
-                    where(ge(q1, q2), (deepest - r, 0.0, sign(y1), 0.0), (deepest - r, 0.0, 0.0, sign(y2)))))
+    v = where(lt(0.0, deepest), (out - r, _sign(y0) * o0 / out, _sign(y1) * o1 / out, _sign(y2) * o2 / out),
+              where(ge(q0, maximum(q1, q2)), (deepest - r, _sign(y0), 0.0, 0.0),
+                    where(ge(q1, q2), (deepest - r, 0.0, _sign(y1), 0.0), (deepest - r, 0.0, 0.0, _sign(y2)))))
     return v[0], (v[1], v[2], v[3])
 
 
