@@ -99,8 +99,9 @@ def _mesh(dim):
 
 @pytest.mark.parametrize("name,dim", CASES)
 def test_ufl_equals_numpy(name, dim):
-    """The UFL gap (the static solver's, at displaced points and a UFL time) == numpy, and its derivative
-    along a displacement == the numpy gap's directional difference."""
+    """The UFL gap (the static solver's, at displaced points and a UFL time) == numpy, its derivative
+    along a displacement == the numpy gap's directional difference, and the Jacobian of a penalty residual
+    built on it compiles."""
     t = tool(name, dim)
     msh = _mesh(dim)
     V = dc.vector_space(msh)
@@ -125,6 +126,10 @@ def test_ufl_equals_numpy(name, dim):
     h = 1e-6
     fd = (t.gap_np(xs + h * direction, T)[0] - t.gap_np(xs - h * direction, T)[0]) / (2 * h)
     assert np.mean(np.abs(vals[:, 1] - fd) < 1e-6) >= 0.9
+    # the penalty residual's Jacobian compiles (FFCx factors it): what the static solver's Newton assembles
+    v = ufl.TestFunction(V)
+    residual = ufl.inner(ufl.conditional(ufl.lt(g, 0.0), -g, 0.0) * N, v) * ufl.ds
+    fem.form(ufl.derivative(residual, u))
 
 
 def test_validation_reads_the_registry():

@@ -18,30 +18,42 @@ from fenics_plast.tool_shapes.ops import TINY, ge, lt, maximum, sqrt, where
 
 
 def _sign(y):
-    """y / |y| (guarded: 0 at y = 0), a smooth expression rather than a conditional: FFCx cannot factor the
-    Jacobian of a conditional whose one branch is a constant and the other depends on the unknowns."""
+    """y / |y| (guarded: 0 at y = 0), a smooth expression rather than a conditional (see :func:`gap`)."""
     return y / sqrt(y * y + TINY)
 
 
+def _flag(c):
+    """1.0 where the condition c holds, else 0.0."""
+    return where(c, (1.0,), (0.0,))[0]
+
+
 def gap(prm, x, d):
-    """(g [mm], N) of the positions x translated by d (see the package docstring)."""
+    """(g [mm], N) of the positions x translated by d (see the package docstring).
+
+    Written for FFCx as much as for the reader: FFCx cannot factor the Jacobian of a conditional whose one
+    branch is a constant and the other depends on the unknowns, so the face picked inside the core is
+    weighted by 0/1 flags (they do not depend on the unknowns in the Jacobian) and the signs are smooth
+    (``tests/test_tool_shapes.py`` compiles every shape's Jacobian)."""
     if len(x) == 2:
         y0, y1 = x[0] - (prm[0] + d[0]), x[1] - (prm[1] + d[1])
         q0, q1, r = abs(y0) - prm[2], abs(y1) - prm[3], prm[4]
         o0, o1 = maximum(q0, 0.0), maximum(q1, 0.0)
         out = sqrt(o0 * o0 + o1 * o1 + TINY)
         deepest = maximum(q0, q1)
+        k0 = _flag(ge(q0, q1))                          # inside: the face of axis 0 is the nearest
         v = where(lt(0.0, deepest), (out - r, _sign(y0) * o0 / out, _sign(y1) * o1 / out),
-                  where(ge(q0, q1), (deepest - r, _sign(y0), 0.0), (deepest - r, 0.0, _sign(y1))))
+                  (deepest - r, k0 * _sign(y0), (1.0 - k0) * _sign(y1)))
         return v[0], (v[1], v[2])
     y0, y1, y2 = x[0] - (prm[0] + d[0]), x[1] - (prm[1] + d[1]), x[2] - (prm[2] + d[2])
     q0, q1, q2, r = abs(y0) - prm[3], abs(y1) - prm[4], abs(y2) - prm[5], prm[6]
     o0, o1, o2 = maximum(q0, 0.0), maximum(q1, 0.0), maximum(q2, 0.0)
     out = sqrt(o0 * o0 + o1 * o1 + o2 * o2 + TINY)
     deepest = maximum(q0, maximum(q1, q2))
+    k0 = _flag(ge(q0, maximum(q1, q2)))                 # inside: the nearest face's axis, 0, 1 or 2
+    k1 = (1.0 - k0) * _flag(ge(q1, q2))
+    k2 = 1.0 - k0 - k1
     v = where(lt(0.0, deepest), (out - r, _sign(y0) * o0 / out, _sign(y1) * o1 / out, _sign(y2) * o2 / out),
-              where(ge(q0, maximum(q1, q2)), (deepest - r, _sign(y0), 0.0, 0.0),
-                    where(ge(q1, q2), (deepest - r, 0.0, _sign(y1), 0.0), (deepest - r, 0.0, 0.0, _sign(y2)))))
+              (deepest - r, k0 * _sign(y0), k1 * _sign(y1), k2 * _sign(y2)))
     return v[0], (v[1], v[2], v[3])
 
 

@@ -9,6 +9,10 @@ A shape's ``gap(prm, x, d)`` (:mod:`fenics_plast.tool_shapes`) is written once, 
   :mod:`fenics_plast.solvers.tool_gaps` gives each function here its compiled meaning
   (``numba.extending.overload``).
 
+One rule for UFL: FFCx cannot factor the Jacobian of a conditional (``where``) that picks between a
+constant and an expression of the position; pick between expressions, or weight expressions by 0/1 flags
+(``box.py``). ``tests/test_tool_shapes.py`` compiles every shape's Jacobian.
+
 Each function tells UFL from numpy by the argument (a UFL expression has ``ufl_shape``). Standard library
 and numpy only: the schema reads the shapes' declarations without importing UFL or numba.
 """
