@@ -321,3 +321,25 @@ def test_study_under_mpirun_matches_serial(tmp_path):
     assert r2.summary["steps"] == r1.summary["steps"]
     for k in TAYLOR_KEYS:
         assert r2.summary[k] == pytest.approx(r1.summary[k], rel=1e-9), k
+
+
+def test_a_folder_held_by_another_run_is_refused(tmp_path, monkeypatch):
+    """A study takes its folder's lock as a run does: a live holder refuses it before anything runs
+    (StudyError: exit 2), a stale one (its PID has ended) is taken over with a warning; the study releases
+    the lock at its end."""
+    import socket
+    from fenics_plast.output import LOCK
+    monkeypatch.setattr("fenics_plast.study.driver.execute", _fake_execute)
+    out = tmp_path / "s"
+    out.mkdir()
+    lock = out / LOCK
+    lock.write_text(json.dumps({"pid": os.getpid(), "host": socket.gethostname()}))
+    with pytest.raises(st.StudyError, match="another run holds the folder"):
+        st.run_study(TAYLOR, [st.parse_vary("mesh.refine=1,2")], out, log=lambda m: None)
+    assert not (out / "runs").exists() and lock.exists()
+    ended = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    lock.write_text(json.dumps({"pid": int(ended.stdout), "host": socket.gethostname()}))
+    said = []
+    st.run_study(TAYLOR, [st.parse_vary("mesh.refine=1,2")], out, log=said.append)
+    assert any("taken over" in m for m in said)
+    assert (out / "study.csv").exists() and not lock.exists()

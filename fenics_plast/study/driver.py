@@ -12,6 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
+from ..output import OutputDirError, RunLock
 from .execute import Run, execute, prevalidate
 from .plan import StudyError, Vary, combinations, non_discretisation_keys, run_label, run_name, study_command
 from .references import references
@@ -69,31 +70,41 @@ def run_study(scene: str | Path, varies: Sequence[Vary], out: str | Path, sets: 
         raise StudyError(str(e)) from None
     fixed = list(sets) if keep_outputs else ["output.xdmf=false", "output.plots=false", *sets]
     out = Path(out)
-    (out / "runs").mkdir(parents=True, exist_ok=True)
-    study = Study(scene=scene, analysis=base.analysis.type, scene_name=base.name, varies=list(varies),
-                  sets=sets, keys=[], info=[], out=out, np_ranks=np_ranks,
-                  command=command or study_command(str(scene), varies, sets, str(out), np_ranks))
-    combos = combinations(varies)
-    for i, combo in enumerate(combos):
-        run = Run(name=run_name(i, combo, varies), label=run_label(combo, varies), settings=combo)
-        run_sets = fixed + [f"{k}={v}" for k, v in combo.items()]
-        why = prevalidate(scene, run_sets)
-        if why is not None:
-            run.status, run.reason = "invalid", why
-        else:
-            log(f"study: run {i + 1}/{len(combos)} {run.label} ...")
-            execute(run, scene, run_sets, out / "runs" / run.name, np_ranks=np_ranks, timeout=timeout,
-                    reuse=reuse, trust_mesh_script=trust_mesh_script)
-        t = run.value("wall_time_s")
-        log(f"study: run {i + 1}/{len(combos)} {run.label}: {run.status}"
-            + (" (reused)" if run.reused else "")
-            + (f", {t:.2f} s" if t is not None else "") + (f": {run.reason}" if run.reason else ""))
-        study.runs.append(run)
-    _take_declared(study, results, log)
-    study.refs = references(study.runs, varies, study.keys)
-    write_csv(study, out / "study.csv")
-    write_plot(study, out / "study.png")
-    write_markdown(study, out / "study.md", "study.png")
-    log(f"study: {sum(r.ok for r in study.runs)}/{len(study.runs)} runs succeeded; "
-        f"{out / 'study.csv'}, {out / 'study.md'}, {out / 'study.png'}")
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        lock = RunLock.acquire(out)          # one study (or run) per folder at a time
+    except OutputDirError as e:
+        raise StudyError(str(e)) from None
+    if lock.warning:
+        log(lock.warning)
+    try:
+        (out / "runs").mkdir(exist_ok=True)
+        study = Study(scene=scene, analysis=base.analysis.type, scene_name=base.name, varies=list(varies),
+                      sets=sets, keys=[], info=[], out=out, np_ranks=np_ranks,
+                      command=command or study_command(str(scene), varies, sets, str(out), np_ranks))
+        combos = combinations(varies)
+        for i, combo in enumerate(combos):
+            run = Run(name=run_name(i, combo, varies), label=run_label(combo, varies), settings=combo)
+            run_sets = fixed + [f"{k}={v}" for k, v in combo.items()]
+            why = prevalidate(scene, run_sets)
+            if why is not None:
+                run.status, run.reason = "invalid", why
+            else:
+                log(f"study: run {i + 1}/{len(combos)} {run.label} ...")
+                execute(run, scene, run_sets, out / "runs" / run.name, np_ranks=np_ranks, timeout=timeout,
+                        reuse=reuse, trust_mesh_script=trust_mesh_script)
+            t = run.value("wall_time_s")
+            log(f"study: run {i + 1}/{len(combos)} {run.label}: {run.status}"
+                + (" (reused)" if run.reused else "")
+                + (f", {t:.2f} s" if t is not None else "") + (f": {run.reason}" if run.reason else ""))
+            study.runs.append(run)
+        _take_declared(study, results, log)
+        study.refs = references(study.runs, varies, study.keys)
+        write_csv(study, out / "study.csv")
+        write_plot(study, out / "study.png")
+        write_markdown(study, out / "study.md", "study.png")
+        log(f"study: {sum(r.ok for r in study.runs)}/{len(study.runs)} runs succeeded; "
+            f"{out / 'study.csv'}, {out / 'study.md'}, {out / 'study.png'}")
+    finally:
+        lock.release()
     return study
