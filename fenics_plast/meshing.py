@@ -94,16 +94,36 @@ _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _DEFINE = re.compile(r"\{([^{}]*?)\bName\s*\"Parameters/([^\"]+)\"([^{}]*)\}")
 
 
-def geo_parameters(path) -> dict[str, dict]:
-    """The ``DefineConstant`` parameters "Parameters/<name>" written in a .geo file, read from its text
+_INCLUDE = re.compile(r'\bInclude\s*"([^"]+)"\s*;')
+_MAX_INCLUDES = 1000    # files read through Includes: a bound, so that a cycle ends
+_MAX_INCLUDE_BYTES = 16 << 20   # a larger Include'd file is not read for its parameters (no .geo is that big)
+
+
+def geo_parameters(path, _seen: set | None = None) -> dict[str, dict]:
+    """The ``DefineConstant`` parameters "Parameters/<name>" written in a .geo file and the files it
+    Includes (resolved next to the including file, read where the Include stands), read from their text
     (Gmsh is not run): {name: {"value": default, "min": ..., "max": ...}}, each entry present when the
-    file writes it as a number (``x = {1.5, Min 0, Max 2, Name "Parameters/x"}``). Comments are skipped;
-    an Include'd file is not read."""
-    text = Path(path).read_text(encoding="utf-8", errors="replace")
+    file writes it as a number (``x = {1.5, Min 0, Max 2, Name "Parameters/x"}``). As in Gmsh, the first
+    definition of a name counts. Comments are skipped; an Include that is missing, not a regular file or
+    over 16 MiB is skipped (the mesh screen and Gmsh report what is wrong with it)."""
+    path = Path(path)
+    seen = set() if _seen is None else _seen
+    if path.resolve() in seen or len(seen) >= _MAX_INCLUDES:
+        return {}
+    seen.add(path.resolve())
+    text = path.read_text(encoding="utf-8", errors="replace")
     text = re.sub(r"/\*.*?\*/", " ", text, flags=re.S)
     text = re.sub(r"//[^\n]*", " ", text)
-    out = {}
-    for m in _DEFINE.finditer(text):
+    statements = sorted([(m.start(), m) for m in _DEFINE.finditer(text)]
+                        + [(m.start(), m) for m in _INCLUDE.finditer(text)], key=lambda e: e[0])
+    out: dict[str, dict] = {}
+    for _, m in statements:
+        if m.re is _INCLUDE:
+            included = path.parent / m.group(1)
+            if included.is_file() and included.stat().st_size <= _MAX_INCLUDE_BYTES:
+                for name, info in geo_parameters(included, seen).items():
+                    out.setdefault(name, info)
+            continue
         inside, info = m.group(1) + " " + m.group(3), {}
         first = re.match(rf"\s*({_NUMBER})\s*,", m.group(1))
         if first:
@@ -112,7 +132,7 @@ def geo_parameters(path) -> dict[str, dict]:
             found = re.search(rf"\b{key}\s+({_NUMBER})", inside)
             if found:
                 info[key.lower()] = float(found.group(1))
-        out[m.group(2)] = info
+        out.setdefault(m.group(2), info)
     return out
 
 

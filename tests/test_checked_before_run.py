@@ -326,3 +326,18 @@ def test_geo_parameters_read_from_the_text(tmp_path):
         """))
     assert geo_parameters(f) == {"length": {"value": 1.5, "min": 0.5, "max": 20.0}, "cells_x": {"value": 4.0},
                                  "offset": {"value": -1.0, "min": -3.0}}
+
+
+def test_geo_parameters_read_through_includes(tmp_path):
+    """A parameter defined in an Include'd file (where the Include stands; the first definition counts, as
+    in Gmsh) has its default, Min and Max read too; an Include cycle ends."""
+    from fenics_plast.meshing import geo_parameters
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "params.geo").write_text(
+        'DefineConstant[ t = {2, Min 0.5, Max 4, Name "Parameters/thickness"},\n'
+        '                w = {7, Name "Parameters/width"} ];\nInclude "../main.geo";\n')
+    (tmp_path / "main.geo").write_text(
+        'DefineConstant[ w = {3, Min 1, Name "Parameters/width"} ];\nInclude "sub/params.geo";\n'
+        'Include "missing.geo";\n')
+    assert geo_parameters(tmp_path / "main.geo") == {"width": {"value": 3.0, "min": 1.0},
+                                                     "thickness": {"value": 2.0, "min": 0.5, "max": 4.0}}
