@@ -264,6 +264,10 @@ class ContactSet:
         self.fc = np.zeros((n, d))
         self.acc = np.zeros((len(P), 2 + d))
         self.pen = np.zeros(len(P))
+        # the kernel's record of these very arrays (it updates the history in place; restore writes into them)
+        self._arrays = ck.ContactArrays(self.X, self.dofs, self.pair, self.area, self.kind, self.params, self.eps,
+                                        self.eps_t, self.mu, self.law, self.gN, self.t_hist, self.N_hist,
+                                        self.p_hist, self.t_scal, self.slip, self.fc, self.acc, self.pen)
         self._dt_stable = self._combined_dt() if P else math.inf
 
     def mass_changed(self):
@@ -285,11 +289,9 @@ class ContactSet:
         return self.pairs[0].comm.allreduce(loc, op=MPI.MIN)
 
     def args(self):
-        """The :class:`~fenics_plast.solvers.contact_kernels.ContactArrays` of contact_forces (the arrays
-        themselves: the kernel updates the history in place)."""
-        return ck.ContactArrays(self.X, self.dofs, self.pair, self.area, self.kind, self.params, self.eps,
-                                self.eps_t, self.mu, self.law, self.gN, self.t_hist, self.N_hist, self.p_hist,
-                                self.t_scal, self.slip, self.fc, self.acc, self.pen)
+        """The :class:`~fenics_plast.solvers.contact_kernels.ContactArrays` of contact_forces (built with the
+        arrays, once per pair added)."""
+        return self._arrays
 
     def translations(self, t):
         """(npairs, dim) tool translations at time t [mm]."""
