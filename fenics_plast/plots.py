@@ -128,6 +128,14 @@ def _draw_figures(out_dir: Path, figures, title, render) -> list[Path]:
     return paths
 
 
+def preload() -> None:
+    """Import the parts of matplotlib the figures use (what :class:`~fenics_plast.plot_worker.PlotWorker`
+    does while the run computes)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: F401
+    from matplotlib.collections import PolyCollection  # noqa: F401
+    _figure().add_subplot()
+
+
 def _figure(size=(6.0, 4.2)):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure

@@ -83,15 +83,40 @@ def write_final_shape(problem, output, V, positions, qmap):
     output.write_csv("final_shape", table)
 
 
+def start_plot_worker(problem, output):
+    """Start the process that will draw the scene's plots (rank 0, when the scene has plots), so that it
+    imports matplotlib while the run computes: ``output.plot_worker``, used by :func:`draw_plots`;
+    :func:`stop_plot_worker` lets it go if the run ends without drawing."""
+    output.plot_worker = None
+    if problem.output.plots and output.is_root and problem.plots:
+        from fenics_plast.plot_worker import PlotWorker
+        try:
+            output.plot_worker = PlotWorker()
+        except OSError:         # no process to spare: the plots are drawn in process
+            output.plot_worker = None
+
+
+def stop_plot_worker(output):
+    worker = getattr(output, "plot_worker", None)
+    if worker is not None:
+        output.plot_worker = None
+        worker.close()
+
+
 def draw_plots(problem, output):
     """The scene's [plots] as PNGs (rank 0); a figure that fails is logged and does not fail the run."""
     if not problem.output.plots or not output.is_root or not problem.plots:
         return
-    from fenics_plast.plots import draw_declared
     from fenics_plast.quantities import study_keys
     output.close_history()
+    args = (output.out_dir, problem.to_dict(), problem.name, study_keys(problem.outputs)["references"])
     try:
-        draw_declared(output.out_dir, problem.to_dict(), title=problem.name,
-                      references=study_keys(problem.outputs)["references"])
+        worker = getattr(output, "plot_worker", None)
+        if worker is not None:          # started with the run (start_plot_worker): matplotlib is imported
+            output.plot_worker = None
+            worker.draw(*args)
+        else:
+            from fenics_plast.plots import draw_declared
+            draw_declared(args[0], args[1], title=args[2], references=args[3])
     except Exception as e:  # noqa: BLE001 - plots are a by-product; the results stand
         output.log(f"warning: plots of {output.out_dir} not drawn: {type(e).__name__}: {e}")

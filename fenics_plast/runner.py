@@ -70,10 +70,25 @@ def run(problem, output, mesh_data=None) -> dict:
     if isinstance(mesh_data, BaseException):
         raise mesh_data
     comm = output.comm if output.comm is not None else MPI.COMM_WORLD
-    if problem.explicit:
-        from fenics_plast.runner_explicit import run_explicit
-        return run_explicit(problem, output, comm, mesh_data)
-    from fenics_plast.runner_static import run_static
-    return run_static(problem, output, comm, mesh_data)
+    from fenics_plast.results import start_plot_worker, stop_plot_worker
+    start_plot_worker(problem, output)
+    try:
+        if problem.explicit:
+            from fenics_plast.runner_explicit import run_explicit
+            results = run_explicit(problem, output, comm, mesh_data)
+        else:
+            from fenics_plast.runner_static import run_static
+            results = run_static(problem, output, comm, mesh_data)
+    finally:
+        stop_plot_worker(output)
+    if results is not None:
+        results["peak_memory_mb"] = peak_memory_mb(comm)
+    return results
+
+
+def peak_memory_mb(comm) -> float:
+    """The largest peak resident memory of one process of the run so far [MiB] (collective)."""
+    import resource
+    return comm.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, op=MPI.MAX)
 
 

@@ -157,7 +157,8 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None) -> Simp
     kin = Kinematics(mesh, problem.mesh.geometry)
     opts = dict(rtol=ana.rtol, atol=ana.atol, max_iterations=ana.max_iterations, linesearch=ana.linesearch,
                 linear_solver=ana.linear_solver, linear_rtol=ana.linear_rtol,
-                linear_max_iterations=ana.linear_max_iterations)
+                linear_max_iterations=ana.linear_max_iterations, jacobian_every=ana.jacobian_every,
+                jacobian_rate=ana.jacobian_rate)
     s = StaticSolver(kin, material, element=problem.mesh.element, log=log, progress=progress, **opts)
     Vc, vmap = s.displacement_space()
     constrained = apply_boundary(problem, s, ft, boundaries(problem, Vc, ft, groups))
@@ -202,7 +203,7 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
     quantities = Quantities(problem.outputs, b.body, b.facet_tags, b.groups, b.reactions)
     cells = mesh.topology.index_map(mesh.topology.dim).size_global
     output.log(f"{problem.name}: {cells} cells, {s.dofs} dofs, element {problem.mesh.element}, "
-               f"linear solver {ana.linear_solver}, "
+               f"linear solver {s.linear_solver_text}, "
                f"physics {', '.join(problem.active_physics) or 'elastic'}, set-up {time.perf_counter() - t_setup:.1f} s")
 
     xf = open_fields(problem, output, comm, mesh)
@@ -266,7 +267,8 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
         res.update(cells=cells, dofs=s.dofs, converged=converged, increments=len(s.increments),
                    newton_iterations=s.total_iterations, cutbacks=len(s.cutbacks),
                    linesearch_retries=len(s.linesearch_retries), element=problem.mesh.element,
-                   final_time=s.lam_converged)
+                   final_time=s.lam_converged, jacobians=s.jacobians,
+                   solver_times_s={k: round(v, 4) for k, v in s.times.items()})
         if contact is not None:
             res["max_penetration_mm"] = contact.max_penetration()
             warnings = []

@@ -188,6 +188,14 @@ SCHEMA: dict[str, Table] = {
             "linear_max_iterations": Key("int", 500, "Iterations of the iterative linear solve (linear_solver = "
                                          "'gamg') before the Newton iteration counts as failed (cut-back).",
                                          when={"type": STATIC}, **_count()),
+            "jacobian_every": Key("int", 1, "Newton's Jacobian (assembled and factorised) at every iteration (1: "
+                                  "full Newton, quadratic convergence) or, modified Newton, at the first iteration "
+                                  "of every increment, every jacobian_every-th iteration and whenever an iteration "
+                                  "reduces the residual by less than jacobian_rate; the iterations between reuse "
+                                  "the factorisation (cheaper, linear convergence; same solution to the Newton "
+                                  "tolerance).", when={"type": STATIC}, **_count()),
+            "jacobian_rate": Key("float", 0.1, "Modified Newton (jacobian_every > 1): a new Jacobian whenever "
+                                 "|R_k| > jacobian_rate |R_k-1|.", when={"type": STATIC}, lo=0.0, hi=1.0),
             "end_time": Key("float", REQUIRED, "Simulated time.", "µs", when={"type": EXPLICIT}, scale=US, **_pos()),
             "dt_safety": Key("float", 0.8, "Time step = dt_safety x the stable limit.", when={"type": EXPLICIT},
                              lo=0.0, hi=1.0, hi_open=False),

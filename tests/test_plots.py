@@ -151,3 +151,31 @@ def test_plot_errors_exit_2(tmp_path, results, capsys):
     assert cli.main(["plot", str(cols)]) == 2
     err = capsys.readouterr().err
     assert "force_kN" in err and "force.png" in err
+
+
+def test_plot_worker_draws_the_same_pngs_as_in_process(results, tmp_path):
+    """The run's plots come from a child process (fenics_plast.plot_worker) that imported matplotlib
+    while the run computed: its PNGs are byte for byte those drawn in process; a figure it cannot draw
+    comes back as an error; a worker let go without a job exits without drawing."""
+    from fenics_plast.plot_worker import PlotWorker
+    from fenics_plast.plots import draw_declared
+    src = results["taylor_bar"]
+    summary = json.loads((src / "summary.json").read_text())
+    args = (summary["scene_settings"], summary["scene"], summary.get("references"))
+    a, b = tmp_path / "worker", tmp_path / "in_process"
+    for d in (a, b):
+        shutil.copytree(src, d)
+        for png in d.glob("*.png"):
+            png.unlink()
+    paths = PlotWorker().draw(a, *args)
+    draw_declared(b, args[0], title=args[1], references=args[2])
+    assert sorted(Path(p).name for p in paths) == sorted(f + ".png" for f in FIGURES["taylor_bar"])
+    for p in paths:
+        assert Path(p).read_bytes() == (b / Path(p).name).read_bytes()
+    history = a / "history.csv"
+    history.write_text(history.read_text().replace("length_mm", "other_mm"))
+    with pytest.raises(RuntimeError, match="length_mm"):
+        PlotWorker().draw(a, *args)
+    idle = PlotWorker()
+    idle.close()
+    assert idle.proc.returncode == 0

@@ -242,3 +242,27 @@ def test_solver_options_are_removed_from_petsc_database():
         gc.collect()
         assert not any(k.startswith(prefix) for k in PETSc.Options().getAll())
     assert len(PETSc.Options().getAll()) <= before      # no growth (earlier tests may still free theirs)
+
+
+def test_modified_newton_reuses_the_factorisation_and_reaches_the_same_state():
+    """analysis.jacobian_every: full Newton assembles a Jacobian at every iteration; modified Newton
+    (a new one every 4th iteration or when an iteration reduces |R| by less than 0.5) assembles fewer
+    Jacobians than iterations, and each increment ends on the same state as full Newton to the Newton
+    tolerance (increments fixed: no growth, so both take the same steps)."""
+    runs = {}
+    for every in (1, 4):
+        b = necking_bar(4, 12, 3.0, rtol=1e-11, atol=1e-9, max_iterations=40, jacobian_every=every,
+                        jacobian_rate=0.5)
+        s = b.solver
+        s.run(increments=4, max_increment=0.1, lam_end=0.4, growth=1.0)
+        runs[every] = (s, top_force(b), s.w.x.array.copy())
+        times = s.times
+        assert all(v >= 0.0 for v in times.values()) and times["material"] > 0 and times["linear"] > 0
+    full, modified = runs[1][0], runs[4][0]
+    assert [r["load_factor"] for r in full.increments] == [r["load_factor"] for r in modified.increments]
+    assert full.jacobians >= full.total_iterations
+    assert modified.jacobians < modified.total_iterations
+    assert modified.total_iterations > full.total_iterations      # linear, not quadratic, convergence
+    assert abs(runs[4][1] - runs[1][1]) <= 1e-8 * abs(runs[1][1])
+    u1, u4 = runs[1][2], runs[4][2]
+    assert np.abs(u4 - u1).max() <= 1e-8 * np.abs(u1).max()

@@ -59,7 +59,8 @@ class StaticSolver:
                  atol=default("analysis.atol"), max_iterations=default("analysis.max_iterations"),
                  linesearch=default("analysis.linesearch"), stol=0.0, verbose=True, log=None, progress=None,
                  linear_solver=default("analysis.linear_solver"), linear_rtol=default("analysis.linear_rtol"),
-                 linear_max_iterations=default("analysis.linear_max_iterations")):
+                 linear_max_iterations=default("analysis.linear_max_iterations"),
+                 jacobian_every=default("analysis.jacobian_every"), jacobian_rate=default("analysis.jacobian_rate")):
         if element not in choices("mesh.element"):
             raise ValueError(f"element must be one of {choices('mesh.element')}, got {element!r}")
         if linear_solver not in choices("analysis.linear_solver"):
@@ -117,7 +118,8 @@ class StaticSolver:
         self._prescribed = []   # (DirichletBC, g Function, X (3, n), value(X, t)): g = value(X, lam)
         self.options = dict(rtol=rtol, atol=atol, max_iterations=max_iterations,
                             linesearch=linesearch, stol=stol, linear_solver=linear_solver,
-                            linear_rtol=linear_rtol, linear_max_iterations=linear_max_iterations)
+                            linear_rtol=linear_rtol, linear_max_iterations=linear_max_iterations,
+                            jacobian_every=int(jacobian_every), jacobian_rate=float(jacobian_rate))
         self._condensed = None      # the python PC of linear_solver "gamg" with q1p0
         self._ksp_iterations = []   # GMRES iterations per Newton step (linear_solver "gamg", q1)
         self.is_set_up = False     # setup() done: forms compiled, SNES and its linear solver built
@@ -129,6 +131,14 @@ class StaticSolver:
         self.linesearch_retries = []    # failed attempts retried at the same step with the other line search
         self.total_iterations_failed = 0
         self.mumps_workspace_raises = []    # (load_factor, infog1, icntl14) per ICNTL(14) raise
+        # where the time goes [s], summed over the solver's life (benchmarks/bench_static.py): the material
+        # update, the residual's assembly (with lifting and boundary values), the Jacobian's assembly, and the
+        # linear solves (SNES.solve less its callbacks: factorisations, triangular solves, line-search vector
+        # work); ``jacobians``: the Jacobians assembled (and so factorised), ``residuals``: the evaluations
+        self.times = dict(material=0.0, residual_assembly=0.0, jacobian_assembly=0.0, linear=0.0)
+        self.jacobians = 0
+        self.residuals = 0
+        self._bc_gap = None         # work vector of _bc_values_reached
 
     # -- problem definition -------------------------------------------------------------------
     def log(self, msg):
@@ -278,6 +288,15 @@ class StaticSolver:
         pc.setPythonContext(self._condensed)
 
     @property
+    def linear_solver_text(self) -> str:
+        """The linear solve of a Newton iteration, in words (the run's log)."""
+        if self.options["linear_solver"] == "gamg":
+            return "gamg (GMRES + GAMG" + (", the dilatation condensed first)" if self.mixed else ")")
+        newton = ("" if self.options["jacobian_every"] <= 1 else
+                  f"; modified Newton, a new Jacobian every {self.options['jacobian_every']} iterations at most")
+        return f"mumps (LU, general: the tangent is not symmetric in general{newton})"
+
+    @property
     def linear_iterations(self):
         """Iterations of the iterative linear solves so far (linear_solver "gamg"), one per Newton step;
         empty for MUMPS."""
@@ -360,6 +379,7 @@ class StaticSolver:
         self.w.x.scatter_forward()
 
     def _residual(self, snes, x, b):
+        t0 = time.perf_counter()
         self._set_state(x)
         bad = False
         try:
@@ -367,27 +387,69 @@ class StaticSolver:
         except MaterialUpdateError as e:
             bad = True
             self._bad_message = str(e)
+        t1 = time.perf_counter()
         # every rank assembles (collective); a failed update anywhere poisons the residual
         with b.localForm() as bl:
             bl.set(0.0)
         fpetsc.assemble_vector(b, self.R_form)
-        dc.apply_lifting(b, [self.J_form], bcs=[self.bcs], x0=[x], alpha=-1.0)
+        if not self._bc_values_reached(x):   # else the lifting A (g - x) is zero: skipped, same vector
+            dc.apply_lifting(b, [self.J_form], bcs=[self.bcs], x0=[x], alpha=-1.0)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         fpetsc.set_bc(b, self.bcs, x, -1.0)
         self._bad_update = bad      # of the latest evaluation (the state SNES ends on)
         if bad:
             with b.localForm() as bl:
                 bl.set(np.nan)
+        t2 = time.perf_counter()
+        self.times["material"] += t1 - t0
+        self.times["residual_assembly"] += t2 - t1
+        self.residuals += 1
+        self._callback_time += t2 - t0
+
+    def _bc_values_reached(self, x) -> bool:
+        """Whether ``x`` holds the Dirichlet values g on every constrained dof (collective). Then the residual's
+        lifting, -A (g - x) on the free rows, is zero, and assembling it (every boundary cell's tangent, every
+        cell's coefficients packed) is skipped. It is not zero only at the first iteration after the tangent
+        predictor, which leaves the constrained dofs at their converged values."""
+        if not self.bcs:
+            return True
+        if self._bc_gap is None:
+            self._bc_gap = x.duplicate()
+        with self._bc_gap.localForm() as gl:
+            gl.set(0.0)
+        fpetsc.set_bc(self._bc_gap, self.bcs, x, -1.0)      # x - g on the owned constrained dofs
+        return self._bc_gap.norm(PETSc.NormType.INFINITY) == 0.0
 
     def _jacobian(self, snes, x, A, P):
+        if not self._jacobian_due(snes.getIterationNumber()):
+            return          # A untouched: its state is unchanged, so PETSc keeps its factorisation
+        t0 = time.perf_counter()
         A.zeroEntries()
         fpetsc.assemble_matrix(A, self.J_form, bcs=self.bcs)
         A.assemble()
+        dt = time.perf_counter() - t0
+        self.times["jacobian_assembly"] += dt
+        self._callback_time += dt
+        self.jacobians += 1
         # Round-off floor of the residual [N]: eps |A|_inf (extent + |x|_inf) x ROUNDOFF_FACTOR. A nearly
         # incompressible material (bulk modulus >> shear modulus) or a stiff contact penalty lifts it
         # above atol, where Newton stalls (measured: 0.2 to 2 x the estimate); see _at_roundoff.
         self.roundoff_floor = ROUNDOFF_FACTOR * np.finfo(float).eps * A.norm(PETSc.NormType.INFINITY) * (
             self._extent + x.norm(PETSc.NormType.INFINITY))
+
+    def _jacobian_due(self, its) -> bool:
+        """Whether iteration ``its`` of an increment assembles and factorises a new Jacobian: always with
+        ``jacobian_every`` = 1 (full Newton); otherwise (modified Newton) at the first iteration of every
+        increment, at every ``jacobian_every``-th iteration, and whenever the last iteration reduced the
+        residual by less than the factor ``jacobian_rate`` (|R_k| > jacobian_rate |R_k-1|)."""
+        o = self.options
+        every = o["jacobian_every"]
+        if every <= 1 or its == 0 or its % every == 0:
+            return True
+        n = self.norms
+        return len(n) >= 2 and n[-1] > o["jacobian_rate"] * n[-2]
+
+    _callback_time = 0.0    # seconds spent in the residual and Jacobian callbacks of the current SNES solve
 
     # -- loading ------------------------------------------------------------------------------
     def set_load(self, lam):
@@ -426,11 +488,15 @@ class StaticSolver:
         # (a residual below ~1e-12 of the forces is round-off; tiny cut-back steps must not chase it)
         o = self.options
         self.snes.setTolerances(atol=max(o["atol"], o["rtol"] * self.force_scale))
+        self._callback_time = 0.0
+        t0 = time.perf_counter()
         try:
             self.snes.solve(None, self.x)
         except PETSc.Error as e:   # pragma: no cover - callbacks catch the expected failures
             self.log(f"  SNES error: {e}")
             return False, self.snes.getIterationNumber(), "petsc-error"
+        finally:
+            self.times["linear"] += time.perf_counter() - t0 - self._callback_time
         reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
         ksp_reason = self.snes.getKSP().getConvergedReason()

@@ -1,0 +1,221 @@
+"""Static solver cost, before and after: time per Newton iteration split by phase, and the process time.
+
+    python benchmarks/bench_static.py                          # 2-D punch, 3-D quarter punch, bar: before/after
+    python benchmarks/bench_static.py --scenes punch_3d --before 1ecb83e
+    python benchmarks/bench_static.py --large                  # + the >= 50k-dof 3-D punch: mumps/gamg, 1/2 ranks
+    python benchmarks/bench_static.py --blas reference         # both runs on Debian's reference BLAS
+
+"Before" is the tree of git revision ``--before`` (default: the commit before the static-speed work),
+exported with ``git archive`` into a temporary folder and run from there (after a short untimed run that
+compiles its numba kernels); "after" is this tree. Both run
+one after the other in this invocation, as the CLI (``fenics-plast run``) in a process of their own, under
+cProfile and PETSc's ``-log_view`` (the same instruments for both; cProfile adds ~3 % here). Per run:
+
+* dofs, Newton iterations, Jacobians assembled (PETSc's SNESJacobianEval count);
+* per Newton iteration [ms]: material update (``QuadratureMap.update``: Fu at the points and the return map,
+  with the tangent), assembly (dolfinx's assemble_matrix, assemble_vector, apply_lifting and coefficient
+  packing), factorisation (PETSc's MatLUFactor*/MatCholeskyFactor* events) and solve (MatSolve);
+* contact: the cost of assembling the scene's contact forms alone (Jacobian and residual, measured in this
+  process on the after tree, times the run's Jacobians and residuals), a part of "assembly";
+* solve [s]: the load stepping (``StaticSolver.run``); process [s]: the whole CLI process, start to exit.
+
+The ratio before/after of the process time is the figure of merit. The machine is shared: compare the two
+columns of one invocation only. ``--large`` runs the 3-D punch refined twice in every direction (10,800
+hexahedra, ~55k dofs) to 4 mm of punch travel, after only, with MUMPS and GAMG, on 1 and 2 ranks, and
+prints the time per Newton iteration and the peak memory (the largest process).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import pstats
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+BEFORE = "1ecb83e"          # the last commit before the static-speed issue
+NO_FILES = ["--set", "output.xdmf=false"]
+
+#: name -> (scene file, --set overrides)
+SCENES = {
+    "punch_2d": ("demos/punch_stretching.toml", []),
+    "punch_3d": ("demos/punch_stretching_3d.toml", []),
+    "bar": ("demos/bar_tension.toml", []),
+}
+#: the >= 50k-dof scene: the 3-D quarter punch, mesh refined 2x, to 4 mm of punch travel in 8 increments
+LARGE = ("demos/punch_stretching_3d.toml",
+         ["--set", "mesh.refine=2", "--set", "steps.to_20mm.end=0.05", "--set", "steps.to_20mm.increments=4",
+          "--set", "steps.to_40mm.end=0.1", "--set", "steps.to_40mm.increments=4", "--set", "output.plots=false"])
+
+#: a short run that compiles a tree's numba kernels before the timed ones
+WARM_UP = ("demos/punch_stretching.toml", ["--set", "tools.punch.path.y=[0.0, 2.0]", "--set", "output.plots=false"])
+
+BLAS_DIRS = {"reference": "/usr/lib/x86_64-linux-gnu/blas", "openblas": "/usr/lib/x86_64-linux-gnu/openblas-serial"}
+
+
+def export_tree(rev: str, dest: Path) -> Path:
+    """The files of git revision ``rev`` in ``dest`` (git archive; no checkout, the repository untouched)."""
+    dest.mkdir(parents=True)
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", rev], check=True, capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
+    return dest
+
+
+def petsc_events(path: Path) -> dict:
+    """{event: (count, max time [s])} from a PETSc -log_view file."""
+    events = {}
+    for line in path.read_text(errors="replace").splitlines():
+        m = re.match(r"^(\w+)\s+(\d+)\s+[\d.]+\s+([\d.e+-]+)\s", line)
+        if m:
+            events[m.group(1)] = (int(m.group(2)), float(m.group(3)))
+    return events
+
+
+def profile_times(path: Path) -> dict:
+    """Seconds by phase from a cProfile file of a CLI run."""
+    st = pstats.Stats(str(path)).stats      # (file, line, name) -> (cc, nc, tottime, cumtime, callers)
+    tot = lambda pred: sum(v[2] for k, v in st.items() if pred(k))    # noqa: E731
+    cum = lambda pred: max([v[3] for k, v in st.items() if pred(k)] or [0.0])   # noqa: E731
+    assembly = {f"<built-in method dolfinx.cpp.fem.{f}>" for f in
+                ("petsc.assemble_matrix", "assemble_matrix", "assemble_vector", "apply_lifting", "pack_coefficients")}
+    return dict(
+        material=cum(lambda k: k[0].endswith("quadrature.py") and k[2] == "update"),
+        assembly=tot(lambda k: k[0] == "~" and k[2] in assembly),
+        snes=tot(lambda k: k[0] == "~" and "'solve' of 'petsc4py.PETSc.SNES'" in k[2]),
+        solve=cum(lambda k: k[0].endswith(os.path.join("solvers", "static.py")) and k[2] == "run"),
+    )
+
+
+def run_cli(tree: Path, scene: str, sets: list, out: Path, ranks: int = 1, blas: str | None = None,
+            profile: bool = True) -> dict:
+    """One CLI run of ``scene`` with the package of ``tree``; its figures."""
+    env = dict(os.environ, PYTHONPATH=str(tree), PETSC_OPTIONS=f"-log_view :{out}.petsclog")
+    if blas:
+        env["LD_LIBRARY_PATH"] = BLAS_DIRS[blas]
+    prof = ["-m", "cProfile", "-o", f"{out}.prof"] if profile else []
+    cmd = [sys.executable, *prof, "-m", "fenics_plast.cli", "run", str(ROOT / scene), "--out", str(out),
+           *NO_FILES, *sets]
+    if ranks > 1:
+        cmd = ["mpirun", "-n", str(ranks), *cmd]
+        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    t0 = time.perf_counter()
+    p = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    if p.returncode != 0:
+        raise SystemExit(f"bench_static: {' '.join(cmd)} failed ({p.returncode}):\n{p.stderr[-3000:]}")
+    summary = json.loads((out / "summary.json").read_text())
+    ev = petsc_events(Path(f"{out}.petsclog"))
+    res = dict(process=wall, dofs=summary["dofs"], newton=summary["newton_iterations"],
+               jacobians=ev.get("SNESJacobianEval", (0, 0))[0], residuals=ev.get("SNESFunctionEval", (0, 0))[0],
+               factorisation=sum(t for k, (n, t) in ev.items() if "FactorNum" in k or "FactorSym" in k
+                                 or k.startswith("MatCholFctr") or k.startswith("MatLUFactor")),
+               triangular=ev.get("MatSolve", (0, 0.0))[1],
+               peak_mb=summary.get("peak_memory_mb", float("nan")),
+               force=summary.get("max_punch_force_kN", summary.get("max_force_kN")))
+    if profile:
+        res.update(profile_times(Path(f"{out}.prof")))
+    return res
+
+
+def contact_cost(scene: str, sets: list) -> tuple[float, float]:
+    """(s per Jacobian, s per residual) of the scene's contact forms alone, on this tree (in process)."""
+    from mpi4py import MPI
+    import dolfinx.fem.petsc as fpetsc
+    from dolfinx import fem
+    from fenics_plast.problem import load_problem
+    from fenics_plast.runner_static import build_static
+    overrides = [sets[i + 1] for i in range(0, len(sets), 2) if sets[i] == "--set"]
+    b = build_static(load_problem(ROOT / scene, overrides), MPI.COMM_SELF)
+    s = b.solver
+    if not s._extra_J:
+        return 0.0, 0.0
+    J = fem.form(sum(s._extra_J[1:], s._extra_J[0]))
+    R = fem.form(sum(s._extra_R[1:], s._extra_R[0]))
+    A, vec = fpetsc.create_matrix(J), fpetsc.create_vector(R)
+    tj, tr = [], []
+    for _ in range(5):
+        t0 = time.perf_counter()
+        A.zeroEntries()
+        fpetsc.assemble_matrix(A, J, bcs=s.bcs)
+        A.assemble()
+        t1 = time.perf_counter()
+        with vec.localForm() as v:
+            v.set(0.0)
+        fpetsc.assemble_vector(vec, R)
+        tr.append(time.perf_counter() - t1)
+        tj.append(t1 - t0)
+    s.close()
+    return sorted(tj)[2], sorted(tr)[2]
+
+
+def per_iteration_row(tag, r, contact):
+    n = max(r["newton"], 1)
+    c = contact[0] * r["jacobians"] + contact[1] * r["residuals"]
+    ms = lambda t: f"{1e3 * t / n:8.1f}"      # noqa: E731
+    return (f"  {tag:7s} {r['dofs']:7d} {r['newton']:6d} {r['jacobians']:5d} {ms(r['material'])} "
+            f"{ms(r['assembly'])} {ms(c)} {ms(r['factorisation'])} {ms(r['triangular'])} "
+            f"{ms(r['snes'] - r['factorisation'] - r['triangular'])} {r['solve']:7.2f} {r['process']:8.2f}")
+
+
+HEADER = (f"  {'':7s} {'dofs':>7s} {'newton':>6s} {'jacs':>5s} {'material':>8s} {'assembly':>8s} "
+          f"{'contact':>8s} {'factor':>8s} {'tri-solve':>8s} {'other-lin':>8s} {'solve[s]':>7s} {'process[s]':>8s}"
+          "\n  (per Newton iteration in ms; contact is a part of assembly)")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scenes", nargs="*", default=list(SCENES), choices=list(SCENES))
+    ap.add_argument("--before", default=BEFORE, help="git revision of the 'before' column (none: skip it)")
+    ap.add_argument("--blas", choices=list(BLAS_DIRS), default=None,
+                    help="force this BLAS on both runs (default: the system's, see README, Dependencies)")
+    ap.add_argument("--before-blas", choices=list(BLAS_DIRS), default=None,
+                    help="the 'before' column on this BLAS (e.g. reference: the code and install as they were)")
+    ap.add_argument("--large", action="store_true", help="also the >= 50k-dof 3-D punch (after only; minutes)")
+    a = ap.parse_args()
+    tmp = Path(tempfile.mkdtemp(prefix="bench_static_"))
+    try:
+        trees = {"after": ROOT}
+        if a.before != "none":
+            trees = {"before": export_tree(a.before, tmp / "before_tree"), **trees}
+        for tag, tree in trees.items():     # compiles the numba kernels into the tree's cache (not timed)
+            if a.scenes:
+                run_cli(tree, *WARM_UP, tmp / f"warm_up_{tag}", profile=False)
+        for name in a.scenes:
+            scene, sets = SCENES[name]
+            contact = contact_cost(scene, sets)
+            print(f"{name} ({scene})\n{HEADER}", flush=True)
+            res = {}
+            for tag, tree in trees.items():
+                blas = a.before_blas if tag == "before" and a.before_blas else a.blas
+                res[tag] = run_cli(tree, scene, sets, tmp / f"{name}_{tag}", blas=blas)
+                print(per_iteration_row(tag + (f"/{blas}" if blas else ""), res[tag], contact), flush=True)
+            if len(res) == 2:
+                b, f = res["before"], res["after"]
+                print(f"  process {b['process'] / f['process']:.2f}x faster, solve {b['solve'] / f['solve']:.2f}x; "
+                      f"process / solve after {f['process'] / f['solve']:.2f}; "
+                      f"force before {b['force']} after {f['force']} kN", flush=True)
+        if a.large:
+            scene, sets = LARGE
+            print(f"large: {scene} {' '.join(sets[1::2])}\n  {'solver':6s} {'ranks':>5s} {'dofs':>7s} "
+                  f"{'newton':>6s} {'s/newton':>8s} {'solve[s]':>8s} {'peak MB':>8s} {'force kN':>9s}", flush=True)
+            for solver in ("mumps", "gamg"):
+                for ranks in (1, 2):
+                    r = run_cli(ROOT, scene, sets + ["--set", f"analysis.linear_solver={solver}"],
+                                tmp / f"large_{solver}_{ranks}", ranks=ranks, profile=False)
+                    summary = json.loads((tmp / f"large_{solver}_{ranks}" / "summary.json").read_text())
+                    solve = sum(summary["solver_times_s"].values())
+                    print(f"  {solver:6s} {ranks:5d} {r['dofs']:7d} {r['newton']:6d} "
+                          f"{solve / max(r['newton'], 1):8.2f} {solve:8.1f} {r['peak_mb']:8.0f} {r['force']:9.4g}",
+                          flush=True)
+    finally:
+        shutil.rmtree(tmp)          # only what this run wrote
+
+
+if __name__ == "__main__":
+    main()
