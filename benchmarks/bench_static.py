@@ -4,6 +4,7 @@
     python benchmarks/bench_static.py --scenes punch_3d --before 1ecb83e
     python benchmarks/bench_static.py --large                  # + the >= 50k-dof 3-D punch: mumps/gamg, 1/2 ranks
     python benchmarks/bench_static.py --blas reference         # both runs on Debian's reference BLAS
+    python benchmarks/bench_static.py --scenes --process       # process against solve time, 2-D punch, Taylor bar
 
 "Before" is the tree of git revision ``--before`` (default: the commit before the static-speed work),
 exported with ``git archive`` into a temporary folder and run from there (after a short untimed run that
@@ -40,7 +41,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 BEFORE = "1ecb83e"          # the last commit before the static-speed issue
-NO_FILES = ["--set", "output.xdmf=false"]
+NO_FILES = ["--set", "output.xdmf=false"]       # the scenes' plots stay (their cost is part of the process)
 
 #: name -> (scene file, --set overrides)
 SCENES = {
@@ -52,6 +53,9 @@ SCENES = {
 LARGE = ("demos/punch_stretching_3d.toml",
          ["--set", "mesh.refine=2", "--set", "steps.to_20mm.end=0.05", "--set", "steps.to_20mm.increments=4",
           "--set", "steps.to_40mm.end=0.1", "--set", "steps.to_40mm.increments=4", "--set", "output.plots=false"])
+
+#: the small scenes whose process time should be dominated by their solve
+PROCESS_SCENES = ("demos/punch_stretching.toml", "demos/taylor_bar.toml")
 
 #: a short run that compiles a tree's numba kernels before the timed ones
 WARM_UP = ("demos/punch_stretching.toml", ["--set", "tools.punch.path.y=[0.0, 2.0]", "--set", "output.plots=false"])
@@ -93,14 +97,14 @@ def profile_times(path: Path) -> dict:
 
 
 def run_cli(tree: Path, scene: str, sets: list, out: Path, ranks: int = 1, blas: str | None = None,
-            profile: bool = True) -> dict:
-    """One CLI run of ``scene`` with the package of ``tree``; its figures."""
+            profile: bool = True, as_shipped: bool = False) -> dict:
+    """One CLI run of ``scene`` with the package of ``tree``; its figures. No XDMF unless ``as_shipped``."""
     env = dict(os.environ, PYTHONPATH=str(tree), PETSC_OPTIONS=f"-log_view :{out}.petsclog")
     if blas:
         env["LD_LIBRARY_PATH"] = BLAS_DIRS[blas]
     prof = ["-m", "cProfile", "-o", f"{out}.prof"] if profile else []
     cmd = [sys.executable, *prof, "-m", "fenics_plast.cli", "run", str(ROOT / scene), "--out", str(out),
-           *NO_FILES, *sets]
+           *([] if as_shipped else NO_FILES), *sets]
     if ranks > 1:
         cmd = ["mpirun", "-n", str(ranks), *cmd]
         env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
@@ -116,6 +120,7 @@ def run_cli(tree: Path, scene: str, sets: list, out: Path, ranks: int = 1, blas:
                factorisation=sum(t for k, (n, t) in ev.items() if "FactorNum" in k or "FactorSym" in k
                                  or k.startswith("MatCholFctr") or k.startswith("MatLUFactor")),
                triangular=ev.get("MatSolve", (0, 0.0))[1],
+               symbolic=ev.get("MatLUFactorSym", (0, 0.0))[0], numeric=ev.get("MatLUFactorNum", (0, 0.0))[0],
                peak_mb=summary.get("peak_memory_mb", float("nan")),
                force=summary.get("max_punch_force_kN", summary.get("max_force_kN")))
     if profile:
@@ -176,6 +181,7 @@ def main():
                     help="force this BLAS on both runs (default: the system's, see README, Dependencies)")
     ap.add_argument("--before-blas", choices=list(BLAS_DIRS), default=None,
                     help="the 'before' column on this BLAS (e.g. reference: the code and install as they were)")
+    ap.add_argument("--process", action="store_true", help="process against solve time of the small scenes")
     ap.add_argument("--large", action="store_true", help="also the >= 50k-dof 3-D punch (after only; minutes)")
     a = ap.parse_args()
     tmp = Path(tempfile.mkdtemp(prefix="bench_static_"))
@@ -197,9 +203,24 @@ def main():
                 print(per_iteration_row(tag + (f"/{blas}" if blas else ""), res[tag], contact), flush=True)
             if len(res) == 2:
                 b, f = res["before"], res["after"]
+                print(f"  LU factorisations (numeric / symbolic): before {b['numeric']} / {b['symbolic']}, "
+                      f"after {f['numeric']} / {f['symbolic']}")
                 print(f"  process {b['process'] / f['process']:.2f}x faster, solve {b['solve'] / f['solve']:.2f}x; "
                       f"process / solve after {f['process'] / f['solve']:.2f}; "
                       f"force before {b['force']} after {f['force']} kN", flush=True)
+        if a.process:
+            print("process time against solve time (median of 3 plain runs, no profiler; solve: the load stepping "
+                  "or the explicit step loop)", flush=True)
+            for scene in PROCESS_SCENES:
+                runs = []
+                for k in range(3):
+                    out = tmp / f"process_{Path(scene).stem}_{k}"
+                    r = run_cli(ROOT, scene, [], out, profile=False, as_shipped=True)
+                    summary = json.loads((out / "summary.json").read_text())
+                    runs.append((r["process"], summary.get("solve_time_s", summary.get("step_loop_time_s"))))
+                process, solve = sorted(runs)[1]
+                print(f"  {scene:32s} process {process:6.2f} s  solve {solve:6.2f} s  ratio {process / solve:5.2f}",
+                      flush=True)
         if a.large:
             scene, sets = LARGE
             print(f"large: {scene} {' '.join(sets[1::2])}\n  {'solver':6s} {'ranks':>5s} {'dofs':>7s} "
@@ -209,10 +230,12 @@ def main():
                     r = run_cli(ROOT, scene, sets + ["--set", f"analysis.linear_solver={solver}"],
                                 tmp / f"large_{solver}_{ranks}", ranks=ranks, profile=False)
                     summary = json.loads((tmp / f"large_{solver}_{ranks}" / "summary.json").read_text())
-                    solve = sum(summary["solver_times_s"].values())
+                    times = summary["solver_times_s"]
+                    solve = sum(times.values())
+                    split = ", ".join(f"{k} {v / max(r['newton'], 1):.2f}" for k, v in times.items())
                     print(f"  {solver:6s} {ranks:5d} {r['dofs']:7d} {r['newton']:6d} "
-                          f"{solve / max(r['newton'], 1):8.2f} {solve:8.1f} {r['peak_mb']:8.0f} {r['force']:9.4g}",
-                          flush=True)
+                          f"{solve / max(r['newton'], 1):8.2f} {solve:8.1f} {r['peak_mb']:8.0f} {r['force']:9.4g}"
+                          f"   (s per Newton iteration: {split}; process {r['process']:.0f} s)", flush=True)
     finally:
         shutil.rmtree(tmp)          # only what this run wrote
 

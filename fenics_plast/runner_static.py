@@ -267,7 +267,7 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
         res.update(cells=cells, dofs=s.dofs, converged=converged, increments=len(s.increments),
                    newton_iterations=s.total_iterations, cutbacks=len(s.cutbacks),
                    linesearch_retries=len(s.linesearch_retries), element=problem.mesh.element,
-                   final_time=s.lam_converged, jacobians=s.jacobians,
+                   final_time=s.lam_converged, jacobians=s.jacobians, solve_time_s=time.perf_counter() - t_solve,
                    solver_times_s={k: round(v, 4) for k, v in s.times.items()})
         if contact is not None:
             res["max_penetration_mm"] = contact.max_penetration()
@@ -289,6 +289,7 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
         write_final_shape(problem, output, Vc, positions(), s.qmap)
         draw_plots(problem, output)
 
+    t_solve = time.perf_counter()
     try:
         for name, end, increments, max_increment in steps:
             if s.lam_converged >= end - 1e-12 * max(1.0, end):

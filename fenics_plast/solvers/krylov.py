@@ -190,6 +190,13 @@ def displacement_index_sets(W, V, theta_dofs, gdim):
     u_local = vmap[: n_nodes * gdim]
     if (u_local >= n_own).any():
         raise RuntimeError("displacement_index_sets: an owned node has a displacement dof owned elsewhere")
+    # PETSc's parallel MatCreateSubMatrix needs sorted index sets (unsorted ones fail on 2 ranks with "Object is
+    # in wrong state: subgarray[0] cannot < garray[0]"): the nodes in the order of their first dof, each node's
+    # components together (consecutive in W's numbering)
+    blocks = u_local.reshape(-1, gdim)
+    u_local = blocks[np.argsort(blocks[:, 0], kind="stable")].reshape(-1)
+    if (np.diff(u_local) <= 0).any():
+        raise RuntimeError("displacement_index_sets: a node's displacement dofs are not consecutive in W")
     t_local = np.sort(theta_dofs[theta_dofs < n_own])
     is_u = PETSc.IS().createGeneral((u_local + start).astype(PETSc.IntType), comm=comm)
     is_t = PETSc.IS().createGeneral((t_local + start).astype(PETSc.IntType), comm=comm)

@@ -134,10 +134,9 @@ class StaticSolver:
         # where the time goes [s], summed over the solver's life (benchmarks/bench_static.py): the material
         # update, the residual's assembly (with lifting and boundary values), the Jacobian's assembly, and the
         # linear solves (SNES.solve less its callbacks: factorisations, triangular solves, line-search vector
-        # work); ``jacobians``: the Jacobians assembled (and so factorised), ``residuals``: the evaluations
+        # work); ``jacobians``: the Jacobians assembled (and so factorised)
         self.times = dict(material=0.0, residual_assembly=0.0, jacobian_assembly=0.0, linear=0.0)
         self.jacobians = 0
-        self.residuals = 0
         self._bc_gap = None         # work vector of _bc_values_reached
 
     # -- problem definition -------------------------------------------------------------------
@@ -294,7 +293,7 @@ class StaticSolver:
             return "gamg (GMRES + GAMG" + (", the dilatation condensed first)" if self.mixed else ")")
         newton = ("" if self.options["jacobian_every"] <= 1 else
                   f"; modified Newton, a new Jacobian every {self.options['jacobian_every']} iterations at most")
-        return f"mumps (LU, general: the tangent is not symmetric in general{newton})"
+        return f"mumps (LU{newton})"
 
     @property
     def linear_iterations(self):
@@ -403,7 +402,6 @@ class StaticSolver:
         t2 = time.perf_counter()
         self.times["material"] += t1 - t0
         self.times["residual_assembly"] += t2 - t1
-        self.residuals += 1
         self._callback_time += t2 - t0
 
     def _bc_values_reached(self, x) -> bool:
