@@ -5,6 +5,7 @@
     python benchmarks/bench_static.py --large                  # + the >= 50k-dof 3-D punch: mumps/gamg, 1/2 ranks
     python benchmarks/bench_static.py --blas reference         # both runs on Debian's reference BLAS
     python benchmarks/bench_static.py --scenes --process       # process against solve time, 2-D punch, Taylor bar
+    python benchmarks/bench_static.py --before none --rates    # Newton's observed convergence orders
 
 "Before" is the tree of git revision ``--before`` (default: the commit before the static-speed work),
 exported with ``git archive`` into a temporary folder and run from there (after a short untimed run that
@@ -115,7 +116,7 @@ def run_cli(tree: Path, scene: str, sets: list, out: Path, ranks: int = 1, blas:
         raise SystemExit(f"bench_static: {' '.join(cmd)} failed ({p.returncode}):\n{p.stderr[-3000:]}")
     summary = json.loads((out / "summary.json").read_text())
     ev = petsc_events(Path(f"{out}.petsclog"))
-    res = dict(process=wall, dofs=summary["dofs"], newton=summary["newton_iterations"],
+    res = dict(process=wall, dofs=summary.get("dofs"), newton=summary.get("newton_iterations", 0),
                jacobians=ev.get("SNESJacobianEval", (0, 0))[0], residuals=ev.get("SNESFunctionEval", (0, 0))[0],
                factorisation=sum(t for k, (n, t) in ev.items() if "FactorNum" in k or "FactorSym" in k
                                  or k.startswith("MatCholFctr") or k.startswith("MatLUFactor")),
@@ -159,16 +160,41 @@ def contact_cost(scene: str, sets: list) -> tuple[float, float]:
     return sorted(tj)[2], sorted(tr)[2]
 
 
+def convergence_orders(scene: str) -> list[float]:
+    """The observed order of Newton's last step, log(r_k+1 / r_k) / log(r_k / r_k-1), of every increment of the
+    scene (this tree, in process) with three residuals above its round-off (1e-12 of its largest)."""
+    import math
+    from mpi4py import MPI
+    from fenics_plast.problem import load_problem
+    from fenics_plast.runner_static import build_static, load_steps
+    problem = load_problem(ROOT / scene)
+    b = build_static(problem, MPI.COMM_SELF)
+    s = b.solver
+    s.verbose = False
+    commit = (lambda solver: b.contact.commit()) if b.contact is not None else None
+    for _, end, increments, max_increment in load_steps(problem):
+        s.run(increments=increments, min_increment=problem.analysis.min_increment, max_increment=max_increment,
+              lam_end=end, callback=commit)
+    floor = 1e-12 * max(max(rec["norms"]) for rec in s.increments)
+    orders = []
+    for rec in s.increments:
+        r = [x for x in rec["norms"] if x > floor]
+        if len(r) >= 3 and r[-2] < r[-3]:
+            orders.append(math.log(r[-1] / r[-2]) / math.log(r[-2] / r[-3]))
+    s.close()
+    return orders
+
+
 def per_iteration_row(tag, r, contact):
     n = max(r["newton"], 1)
     c = contact[0] * r["jacobians"] + contact[1] * r["residuals"]
     ms = lambda t: f"{1e3 * t / n:8.1f}"      # noqa: E731
-    return (f"  {tag:7s} {r['dofs']:7d} {r['newton']:6d} {r['jacobians']:5d} {ms(r['material'])} "
+    return (f"  {tag:17s} {r['dofs']:7d} {r['newton']:6d} {r['jacobians']:5d} {ms(r['material'])} "
             f"{ms(r['assembly'])} {ms(c)} {ms(r['factorisation'])} {ms(r['triangular'])} "
             f"{ms(r['snes'] - r['factorisation'] - r['triangular'])} {r['solve']:7.2f} {r['process']:8.2f}")
 
 
-HEADER = (f"  {'':7s} {'dofs':>7s} {'newton':>6s} {'jacs':>5s} {'material':>8s} {'assembly':>8s} "
+HEADER = (f"  {'':17s} {'dofs':>7s} {'newton':>6s} {'jacs':>5s} {'material':>8s} {'assembly':>8s} "
           f"{'contact':>8s} {'factor':>8s} {'tri-solve':>8s} {'other-lin':>8s} {'solve[s]':>7s} {'process[s]':>8s}"
           "\n  (per Newton iteration in ms; contact is a part of assembly)")
 
@@ -179,17 +205,21 @@ def main():
     ap.add_argument("--before", default=BEFORE, help="git revision of the 'before' column (none: skip it)")
     ap.add_argument("--blas", choices=list(BLAS_DIRS), default=None,
                     help="force this BLAS on both runs (default: the system's, see README, Dependencies)")
-    ap.add_argument("--before-blas", choices=list(BLAS_DIRS), default=None,
-                    help="the 'before' column on this BLAS (e.g. reference: the code and install as they were)")
+    ap.add_argument("--before-blas", nargs="+", choices=list(BLAS_DIRS), default=None,
+                    help="a 'before' column on each of these BLAS (reference: the code and install as they were)")
+    ap.add_argument("--rates", action="store_true", help="Newton's observed convergence orders of --scenes")
+    ap.add_argument("--large-runs", nargs="+", default=["mumps:1", "mumps:2", "gamg:1", "gamg:2"],
+                    help="the --large runs, solver:ranks")
     ap.add_argument("--process", action="store_true", help="process against solve time of the small scenes")
     ap.add_argument("--large", action="store_true", help="also the >= 50k-dof 3-D punch (after only; minutes)")
     a = ap.parse_args()
     tmp = Path(tempfile.mkdtemp(prefix="bench_static_"))
     try:
-        trees = {"after": ROOT}
+        runs = [("after", ROOT, a.blas)]            # (column, tree, BLAS)
         if a.before != "none":
-            trees = {"before": export_tree(a.before, tmp / "before_tree"), **trees}
-        for tag, tree in trees.items():     # compiles the numba kernels into the tree's cache (not timed)
+            old = export_tree(a.before, tmp / "before_tree")
+            runs = [("before", old, blas) for blas in (a.before_blas or [a.blas])] + runs
+        for tag, tree, _ in runs[-2:]:     # compiles the numba kernels into each tree's cache (not timed)
             if a.scenes:
                 run_cli(tree, *WARM_UP, tmp / f"warm_up_{tag}", profile=False)
         for name in a.scenes:
@@ -197,17 +227,25 @@ def main():
             contact = contact_cost(scene, sets)
             print(f"{name} ({scene})\n{HEADER}", flush=True)
             res = {}
-            for tag, tree in trees.items():
-                blas = a.before_blas if tag == "before" and a.before_blas else a.blas
-                res[tag] = run_cli(tree, scene, sets, tmp / f"{name}_{tag}", blas=blas)
-                print(per_iteration_row(tag + (f"/{blas}" if blas else ""), res[tag], contact), flush=True)
-            if len(res) == 2:
-                b, f = res["before"], res["after"]
-                print(f"  LU factorisations (numeric / symbolic): before {b['numeric']} / {b['symbolic']}, "
-                      f"after {f['numeric']} / {f['symbolic']}")
-                print(f"  process {b['process'] / f['process']:.2f}x faster, solve {b['solve'] / f['solve']:.2f}x; "
-                      f"process / solve after {f['process'] / f['solve']:.2f}; "
-                      f"force before {b['force']} after {f['force']} kN", flush=True)
+            for tag, tree, blas in runs:
+                label = tag + (f"/{blas}" if blas else "")
+                res[label] = run_cli(tree, scene, sets, tmp / f"{name}_{label.replace('/', '_')}", blas=blas)
+                print(per_iteration_row(label, res[label], contact), flush=True)
+            f = res[runs[-1][0] + (f"/{runs[-1][2]}" if runs[-1][2] else "")]
+            for label, b in list(res.items())[:-1]:
+                print(f"  {label} -> after: process {b['process'] / f['process']:.2f}x faster, solve "
+                      f"{b['solve'] / f['solve']:.2f}x; force {b['force']} -> {f['force']} kN "
+                      f"(relative {abs(f['force'] - b['force']) / abs(b['force']):.1e}); LU numeric / symbolic "
+                      f"{b['numeric']} / {b['symbolic']} -> {f['numeric']} / {f['symbolic']}", flush=True)
+            print(f"  process / solve after: {f['process'] / f['solve']:.2f}", flush=True)
+        if a.rates:
+            import numpy as np
+            print("Newton's observed convergence order at the last step of each increment (after)", flush=True)
+            for name in a.scenes:
+                o = np.array(convergence_orders(SCENES[name][0]))
+                print(f"  {name:9s} {len(o)} increments: median {np.median(o):.2f}, quartiles "
+                      f"{np.percentile(o, 25):.2f} / {np.percentile(o, 75):.2f}, >= 1.5 in {np.mean(o >= 1.5):.0%}",
+                      flush=True)
         if a.process:
             print("process time against solve time (median of 3 plain runs, no profiler; solve: the load stepping "
                   "or the explicit step loop)", flush=True)
@@ -225,17 +263,16 @@ def main():
             scene, sets = LARGE
             print(f"large: {scene} {' '.join(sets[1::2])}\n  {'solver':6s} {'ranks':>5s} {'dofs':>7s} "
                   f"{'newton':>6s} {'s/newton':>8s} {'solve[s]':>8s} {'peak MB':>8s} {'force kN':>9s}", flush=True)
-            for solver in ("mumps", "gamg"):
-                for ranks in (1, 2):
-                    r = run_cli(ROOT, scene, sets + ["--set", f"analysis.linear_solver={solver}"],
-                                tmp / f"large_{solver}_{ranks}", ranks=ranks, profile=False)
-                    summary = json.loads((tmp / f"large_{solver}_{ranks}" / "summary.json").read_text())
-                    times = summary["solver_times_s"]
-                    solve = sum(times.values())
-                    split = ", ".join(f"{k} {v / max(r['newton'], 1):.2f}" for k, v in times.items())
-                    print(f"  {solver:6s} {ranks:5d} {r['dofs']:7d} {r['newton']:6d} "
-                          f"{solve / max(r['newton'], 1):8.2f} {solve:8.1f} {r['peak_mb']:8.0f} {r['force']:9.4g}"
-                          f"   (s per Newton iteration: {split}; process {r['process']:.0f} s)", flush=True)
+            for solver, ranks in [(c.split(":")[0], int(c.split(":")[1])) for c in a.large_runs]:
+                r = run_cli(ROOT, scene, sets + ["--set", f"analysis.linear_solver={solver}"],
+                            tmp / f"large_{solver}_{ranks}", ranks=ranks, profile=False)
+                summary = json.loads((tmp / f"large_{solver}_{ranks}" / "summary.json").read_text())
+                times = summary["solver_times_s"]
+                solve = sum(times.values())
+                split = ", ".join(f"{k} {v / max(r['newton'], 1):.2f}" for k, v in times.items())
+                print(f"  {solver:6s} {ranks:5d} {r['dofs']:7d} {r['newton']:6d} "
+                      f"{solve / max(r['newton'], 1):8.2f} {solve:8.1f} {r['peak_mb']:8.0f} {r['force']:9.4g}"
+                      f"   (s per Newton iteration: {split}; process {r['process']:.0f} s)", flush=True)
     finally:
         shutil.rmtree(tmp)          # only what this run wrote
 
