@@ -217,8 +217,11 @@ def main():
     try:
         runs = [("after", ROOT, a.blas)]            # (column, tree, BLAS)
         if a.before != "none":
-            old = export_tree(a.before, tmp / "before_tree")
-            runs = [("before", old, blas) for blas in (a.before_blas or [a.blas])] + runs
+            try:
+                old = export_tree(a.before, tmp / "before_tree")
+                runs = [("before", old, blas) for blas in (a.before_blas or [a.blas])] + runs
+            except (subprocess.CalledProcessError, OSError) as e:
+                print(f"bench_static: no revision {a.before} to compare with ({e}): after only", flush=True)
         for tag, tree, _ in runs[-2:]:     # compiles the numba kernels into each tree's cache (not timed)
             if a.scenes:
                 run_cli(tree, *WARM_UP, tmp / f"warm_up_{tag}", profile=False)

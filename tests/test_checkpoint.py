@@ -51,7 +51,8 @@ SCENES = {
                                         "--set", "output.checkpoint_every=3", "--set", "output.xdmf=false"],
               "during", "aluminium"),
 }
-TIMING_KEYS = {"wall_time_s", "step_loop_time_s", "time_per_step_s", "setup_time_s", "setup_and_solve_s"}
+TIMING_KEYS = {"wall_time_s", "step_loop_time_s", "time_per_step_s", "setup_time_s", "setup_and_solve_s",
+               "solve_time_s", "solver_times_s", "peak_memory_mb"}     # measurements of the process
 MPIRUN = ["/usr/bin/mpirun", "--allow-run-as-root", "-n", "2"]
 
 

@@ -605,7 +605,8 @@ class StaticSolver:
                  **{k: Keyed(v, kq) for k, v in self.qmap.state().items()},
                  lam_converged=self.lam_converged, force_scale=self.force_scale,
                  roundoff_floor=self.roundoff_floor, total_iterations=self.total_iterations,
-                 total_iterations_failed=self.total_iterations_failed, increments=self.increments,
+                 total_iterations_failed=self.total_iterations_failed, jacobians=self.jacobians,
+                 increments=self.increments,
                  cutbacks=self.cutbacks, linesearch_retries=self.linesearch_retries,
                  mumps_workspace_raises=getattr(self, "mumps_workspace_raises", []),
                  mumps_icntl_14=icntl)
@@ -647,6 +648,7 @@ class StaticSolver:
         self.roundoff_floor = float(d["roundoff_floor"])
         self.total_iterations = int(d["total_iterations"])
         self.total_iterations_failed = int(d.get("total_iterations_failed", 0))
+        self.jacobians = int(d.get("jacobians", 0))
         self.increments = list(d["increments"])
         self.cutbacks = list(d["cutbacks"])
         self.linesearch_retries = list(d.get("linesearch_retries", []))
