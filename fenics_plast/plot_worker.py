@@ -18,6 +18,20 @@ import subprocess
 import sys
 
 
+def _ignore_sigpipe() -> None:
+    """Writing to a worker that has just died raises SIGPIPE, which PETSc's signal handler (installed when
+    petsc4py starts) turns into an abort of the run. Ignore it, as Python itself does by default: the write
+    then fails with EPIPE, which ``communicate`` absorbs, and :meth:`PlotWorker.draw` reports the worker lost."""
+    import signal
+    import threading
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGPIPE, signal.SIG_IGN)
+
+
+class WorkerLost(RuntimeError):
+    """The worker ended without answering (killed, or it could not start): draw in process instead."""
+
+
 class PlotWorker:
     """A child Python process ready to draw one folder's plots."""
 
@@ -28,12 +42,15 @@ class PlotWorker:
     def draw(self, out_dir, settings, title, references) -> list[str]:
         """Draw the declared figures of ``out_dir`` (the arguments of
         :func:`~fenics_plast.plots.draw_declared`); returns the PNG paths. Raises RuntimeError with the
-        worker's message when a figure could not be drawn."""
+        worker's message when a figure could not be drawn, :class:`WorkerLost` when the worker did not answer."""
         job = json.dumps(dict(out_dir=str(out_dir), settings=settings, title=title, references=references))
+        if self.proc.poll() is not None:
+            raise WorkerLost(f"the plot process ended early with status {self.proc.returncode}")
+        _ignore_sigpipe()
         out, err = self.proc.communicate(job + "\n")
         lines = [line for line in out.splitlines() if line.startswith("{")]
         if not lines:
-            raise RuntimeError(f"the plot process ended with status {self.proc.returncode}: {err.strip()[-500:]}")
+            raise WorkerLost(f"the plot process ended with status {self.proc.returncode}: {err.strip()[-500:]}")
         reply = json.loads(lines[-1])
         if "error" in reply:
             raise RuntimeError(reply["error"])

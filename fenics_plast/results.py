@@ -112,11 +112,15 @@ def draw_plots(problem, output):
     args = (output.out_dir, problem.to_dict(), problem.name, study_keys(problem.outputs)["references"])
     try:
         worker = getattr(output, "plot_worker", None)
+        output.plot_worker = None
         if worker is not None:          # started with the run (start_plot_worker): matplotlib is imported
-            output.plot_worker = None
-            worker.draw(*args)
-        else:
-            from fenics_plast.plots import draw_declared
-            draw_declared(args[0], args[1], title=args[2], references=args[3])
+            from fenics_plast.plot_worker import WorkerLost
+            try:
+                worker.draw(*args)
+                return
+            except WorkerLost as e:
+                output.log(f"warning: {e}; drawing the plots in this process")
+        from fenics_plast.plots import draw_declared
+        draw_declared(args[0], args[1], title=args[2], references=args[3])
     except Exception as e:  # noqa: BLE001 - plots are a by-product; the results stand
         output.log(f"warning: plots of {output.out_dir} not drawn: {type(e).__name__}: {e}")

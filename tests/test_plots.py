@@ -157,7 +157,7 @@ def test_plot_worker_draws_the_same_pngs_as_in_process(results, tmp_path):
     """The run's plots come from a child process (fenics_plast.plot_worker) that imported matplotlib
     while the run computed: its PNGs are byte for byte those drawn in process; a figure it cannot draw
     comes back as an error; a worker let go without a job exits without drawing."""
-    from fenics_plast.plot_worker import PlotWorker
+    from fenics_plast.plot_worker import PlotWorker, WorkerLost
     from fenics_plast.plots import draw_declared
     src = results["taylor_bar"]
     summary = json.loads((src / "summary.json").read_text())
@@ -179,3 +179,65 @@ def test_plot_worker_draws_the_same_pngs_as_in_process(results, tmp_path):
     idle = PlotWorker()
     idle.close()
     assert idle.proc.returncode == 0
+    lost = PlotWorker()
+    lost.proc.kill()
+    lost.proc.wait()
+    with pytest.raises(WorkerLost):
+        lost.draw(a, *args)
+
+
+WRITE_TO_A_DEAD_WORKER = """
+import subprocess, sys
+from petsc4py import PETSc                   # installs PETSc's signal handlers, as in a run
+from fenics_plast.plot_worker import _ignore_sigpipe
+if sys.argv[1] == "ignore":
+    _ignore_sigpipe()
+dead = subprocess.Popen([sys.executable, "-c", "pass"], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                        stderr=subprocess.PIPE, text=True)
+dead.wait()
+dead.communicate("x" * 1_000_000)
+print("survived")
+"""
+
+
+@pytest.mark.parametrize("mode", ["ignore", "default"])
+def test_a_worker_dying_under_the_write_does_not_abort_the_run(mode):
+    """A worker that dies between draw()'s check and its write: the write raises SIGPIPE, which PETSc's handler
+    turns into an abort of the run; draw() ignores SIGPIPE first (as Python does by default), so the run
+    survives. Without that ("default") the process is aborted: the hazard is real."""
+    import subprocess
+    import sys
+    p = subprocess.run([sys.executable, "-c", WRITE_TO_A_DEAD_WORKER, mode], capture_output=True, text=True,
+                       timeout=120, cwd=ROOT)
+    if mode == "ignore":
+        assert p.returncode == 0 and "survived" in p.stdout, p.stderr[-2000:]
+    else:
+        assert p.returncode != 0 and "survived" not in p.stdout
+
+
+def test_run_draws_in_process_when_the_plot_worker_is_lost(results, tmp_path):
+    """A worker that died before the run's end: the run draws its plots itself (and says so)."""
+    from fenics_plast.plot_worker import PlotWorker
+    from fenics_plast.problem import load_problem
+    from fenics_plast.results import draw_plots
+    scene, sets = RUNS["taylor_bar"]
+    problem = load_problem(scene, sets)
+    d = tmp_path / "lost"
+    shutil.copytree(results["taylor_bar"], d)
+    for png in d.glob("*.png"):
+        png.unlink()
+    said = []
+
+    class Output:           # what draw_plots uses of a RunOutput
+        out_dir, is_root, log = d, True, staticmethod(said.append)
+        plot_worker = PlotWorker()
+
+        def close_history(self):
+            pass
+    out = Output()
+    out.plot_worker.proc.kill()
+    out.plot_worker.proc.wait()
+    draw_plots(problem, out)
+    assert any("drawing the plots in this process" in s for s in said), said
+    for f in FIGURES["taylor_bar"]:
+        assert_png(d / f"{f}.png")
