@@ -146,10 +146,10 @@ def contact_cost(scene: str, sets: list) -> tuple[float, float]:
     overrides = [sets[i + 1] for i in range(0, len(sets), 2) if sets[i] == "--set"]
     b = build_static(load_problem(ROOT / scene, overrides), MPI.COMM_SELF)
     s = b.solver
-    if not s._extra_J:
+    if b.contact is None:
         return 0.0, 0.0
-    J = fem.form(sum(s._extra_J[1:], s._extra_J[0]))
-    R = fem.form(sum(s._extra_R[1:], s._extra_R[0]))
+    J = fem.form(b.contact.jacobian())
+    R = fem.form(b.contact.residual())
     A, vec = fpetsc.create_matrix(J), fpetsc.create_vector(R)
     tj, tr = [], []
     for _ in range(5):

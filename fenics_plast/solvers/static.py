@@ -289,10 +289,10 @@ class StaticSolver:
     @property
     def linear_solver_text(self) -> str:
         """The linear solve of a Newton iteration, in words (the run's log)."""
-        if self.options["linear_solver"] == "gamg":
-            return "gamg (GMRES + GAMG" + (", the dilatation condensed first)" if self.mixed else ")")
         newton = ("" if self.options["jacobian_every"] <= 1 else
                   f"; modified Newton, a new Jacobian every {self.options['jacobian_every']} iterations at most")
+        if self.options["linear_solver"] == "gamg":
+            return "gamg (GMRES + GAMG" + (", the dilatation condensed first" if self.mixed else "") + newton + ")"
         return f"mumps (LU{newton})"
 
     @property
