@@ -42,6 +42,10 @@ the values by assembling ``int value q ds / int q ds`` with the same nodal rule 
 function q, which gives exactly the nodal values (both facets of a node see the same value).
 A cut-back needs nothing: the history only changes in ``commit()``.
 
+Predictor: :meth:`PenaltyContact.attach` also registers :meth:`ContactPair.keep_gaps` with the solver
+(``solver.predictors``): an extrapolated increment starts with the nodes that were in contact at their
+committed gaps, so Newton starts with the contact set of the last increment instead of none.
+
 Normal and friction terms share the rule, so at every contact node, and therefore in total, the
 tangential force of a pair equals its mu times its normal force when slipping.  A pair with
 mu = 0 assembles no friction term at all.
@@ -315,6 +319,32 @@ class ContactPair:
         g, _ = self.tool.gap_np(X + s.w.x.array[idx], s.lam)
         return g
 
+    def keep_gaps(self, lam) -> float:
+        """Predictor of an increment to load factor ``lam``: move each owned node of the pair that was in
+        contact at the last commit (gap g_n < 0) along the tool's normal N at the predicted position, by
+        g_n - g, so that its predicted gap g is its committed gap again (the solver's ``w``, owned
+        entries; the caller updates the ghosts). Returns the largest move [mm] (0 if none).
+
+        Why: the extrapolated predictor moves the contact nodes along a chord of their path over the
+        tool; on a curved tool (the punch) the chord's error, a few um per increment, exceeds the penalty
+        penetration (~1 um), so most contact nodes start the increment just outside the tool. There they
+        have no contact stiffness, Newton's first step pushes them millimetres into the tool, and the
+        line search crawls in tiny steps until they are in contact again (measured: the 3-D quarter
+        punch's late increments took 9 to 15 iterations, 5 to 7 with this predictor)."""
+        s = self.contact.solver
+        self.nodal_gaps()           # builds self._nodes on first use
+        X, idx = self._nodes
+        if not len(X):
+            return 0.0
+        g_n, _ = self.tool.gap_np(X + self.contact.w_c.x.array[idx], float(self.contact.lam_c.value))
+        on = g_n < 0.0
+        if not on.any():
+            return 0.0
+        g, N = self.tool.gap_np(X[on] + s.w.x.array[idx[on]], lam)
+        move = (g_n[on] - g)[:, None] * N
+        s.w.x.array[idx[on]] += move
+        return float(np.abs(move).max())
+
     def max_penetration(self):
         """Largest -g over the pair's owned nodes, all ranks [mm] (0 if none penetrates)."""
         g = self.nodal_gaps()
@@ -409,7 +439,13 @@ class PenaltyContact:
         if self._attached:
             return
         self.solver.add_residual(self.residual(), self.jacobian())
+        self.solver.predictors.append(self.keep_gaps)
         self._attached = True
+
+    def keep_gaps(self, lam):
+        """The solver's predictor hook: :meth:`ContactPair.keep_gaps` of every pair."""
+        for p in self.pairs:
+            p.keep_gaps(lam)
 
     def commit(self):
         """Store the history at the current (converged) state; call once per converged increment."""

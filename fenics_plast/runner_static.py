@@ -158,7 +158,7 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None) -> Simp
     opts = dict(rtol=ana.rtol, atol=ana.atol, max_iterations=ana.max_iterations, linesearch=ana.linesearch,
                 linear_solver=ana.linear_solver, linear_rtol=ana.linear_rtol,
                 linear_max_iterations=ana.linear_max_iterations, jacobian_every=ana.jacobian_every,
-                jacobian_rate=ana.jacobian_rate)
+                jacobian_rate=ana.jacobian_rate, predictor=ana.predictor)
     s = StaticSolver(kin, material, element=problem.mesh.element, log=log, progress=progress, **opts)
     Vc, vmap = s.displacement_space()
     constrained = apply_boundary(problem, s, ft, boundaries(problem, Vc, ft, groups))

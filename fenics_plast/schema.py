@@ -197,6 +197,14 @@ SCHEMA: dict[str, Table] = {
                                   "iterations and more time than full Newton.", when={"type": STATIC}, **_count()),
             "jacobian_rate": Key("float", 0.1, "Modified Newton (jacobian_every > 1): a new Jacobian whenever "
                                  "|R_k| > jacobian_rate |R_k-1|.", when={"type": STATIC}, lo=0.0, hi=1.0),
+            "predictor": Key("str", "contact", "Newton's first iterate of an increment. 'contact': the last "
+                             "increment extrapolated, with the nodes in contact moved back to their committed gaps, "
+                             "and, at the first increment of a load step after another, the extrapolation or the "
+                             "tangent predictor, whichever has the smaller residual. 'plain': the extrapolation "
+                             "alone, and the tangent predictor at the first increment of every load step (as before "
+                             "the contact predictor). Both converge to the same solution of an increment; 'contact' "
+                             "takes fewer iterations on curved tools (3-D punch: 169 against 254), so the increments "
+                             "grow sooner.", when={"type": STATIC}, choices=("contact", "plain")),
             "end_time": Key("float", REQUIRED, "Simulated time.", "µs", when={"type": EXPLICIT}, scale=US, **_pos()),
             "dt_safety": Key("float", 0.8, "Time step = dt_safety x the stable limit.", when={"type": EXPLICIT},
                              lo=0.0, hi=1.0, hi_open=False),

@@ -30,9 +30,12 @@ def drive(solver, increments, min_increment, max_increment, lam_end, callback, g
     prev_step = None
     if resume is not None and resume.get("lam_end") == lam_end:
         dl, prev_step = resume["dl"], resume["prev_step"]
-    # a new load step from a loaded state: its first increment takes the tangent predictor
-    # (solve_increment), the later ones extrapolate the step's own increments
+    # a new load step from a loaded state: its first increment takes the tangent predictor or the extrapolation
+    # of the last increment, whichever starts with the smaller residual (StaticSolver._predict); the later ones
+    # extrapolate the step's own increments
     tangent = prev_step is None and solver.lam_converged > 0.0
+    if tangent and solver.increments and solver.options["predictor"] == "contact":
+        prev_step = solver.increments[-1]["step"]
     if solver.progress is not None:
         solver.progress.update(solver.lam_converged, inc=len(solver.increments), newton=0,
                                newton_total=solver.total_iterations, cutbacks=len(solver.cutbacks))

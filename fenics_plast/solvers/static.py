@@ -60,9 +60,12 @@ class StaticSolver:
                  linesearch=default("analysis.linesearch"), stol=0.0, verbose=True, log=None, progress=None,
                  linear_solver=default("analysis.linear_solver"), linear_rtol=default("analysis.linear_rtol"),
                  linear_max_iterations=default("analysis.linear_max_iterations"),
-                 jacobian_every=default("analysis.jacobian_every"), jacobian_rate=default("analysis.jacobian_rate")):
+                 jacobian_every=default("analysis.jacobian_every"), jacobian_rate=default("analysis.jacobian_rate"),
+                 predictor=default("analysis.predictor")):
         if element not in choices("mesh.element"):
             raise ValueError(f"element must be one of {choices('mesh.element')}, got {element!r}")
+        if predictor not in choices("analysis.predictor"):
+            raise ValueError(f"predictor must be one of {choices('analysis.predictor')}, got {predictor!r}")
         if linear_solver not in choices("analysis.linear_solver"):
             raise ValueError(f"linear_solver must be one of {choices('analysis.linear_solver')}, got "
                              f"{linear_solver!r}")
@@ -114,12 +117,16 @@ class StaticSolver:
         self.lam = 0.0
         self._extra_R = []
         self._extra_J = []
+        # corrections of the extrapolated predictor, predict(lam), each changing owned entries of w (the
+        # contact pairs keep their committed gaps: PenaltyContact.attach); applied with predictor "contact"
+        self.predictors = []
         self._bcs = []          # (DirichletBC, g Function, g0 array): g = lam * g0
         self._prescribed = []   # (DirichletBC, g Function, X (3, n), value(X, t)): g = value(X, lam)
         self.options = dict(rtol=rtol, atol=atol, max_iterations=max_iterations,
                             linesearch=linesearch, stol=stol, linear_solver=linear_solver,
                             linear_rtol=linear_rtol, linear_max_iterations=linear_max_iterations,
-                            jacobian_every=int(jacobian_every), jacobian_rate=float(jacobian_rate))
+                            jacobian_every=int(jacobian_every), jacobian_rate=float(jacobian_rate),
+                            predictor=predictor)
         self._condensed = None      # the python PC of linear_solver "gamg" with q1p0
         self._ksp_iterations = []   # GMRES iterations per Newton step (linear_solver "gamg", q1)
         self.is_set_up = False     # setup() done: forms compiled, SNES and its linear solver built
@@ -460,26 +467,11 @@ class StaticSolver:
 
     def solve_increment(self, lam, lam_prev_step=None, tangent_predictor=False):
         """Newton solve at load factor lam from the last converged state. Returns (ok, its, reason).
-
-        Predictor: with ``lam_prev_step`` (the last converged increment), linear extrapolation of that
-        increment, then the Dirichlet values at lam on their nodes. ``tangent_predictor``: no
-        extrapolation, and the Dirichlet values stay at their converged values, so that Newton's first
-        correction imposes their increment through the consistent tangent, which spreads it over the
-        body (the first increment of a load step: imposing a large increment on the boundary nodes
-        alone can invert the cells next to them). Otherwise: the converged state with the Dirichlet
-        values at lam."""
+        The predictor (Newton's first iterate) is :meth:`_predict`'s."""
         if not self.is_set_up:
             self.setup()
-        lam_n = self.lam_converged
         self.set_load(lam)
-        self.w.x.array[:] = self.w_n.x.array
-        if lam_prev_step and lam_prev_step > 0 and not tangent_predictor:
-            s = (lam - lam_n) / lam_prev_step
-            self.w.x.array[:] += s * (self.w_n.x.array - self.w_nm1.x.array)
-        dc.petsc_vec(self.w).copy(self.x)
-        if not tangent_predictor:
-            fpetsc.set_bc(self.x, self.bcs)
-        self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        self._predict(lam, lam_prev_step, tangent_predictor)
         self.norms = []
         self._bad_update = False
         # absolute tolerance: atol, or rtol x the internal-force norm of the last converged state
@@ -519,6 +511,55 @@ class StaticSolver:
         else:
             self.total_iterations_failed += its
         return ok, its, why
+
+    def _predict(self, lam, lam_prev_step, tangent_predictor):
+        """Set Newton's first iterate ``self.x`` (and ``w``) for the increment from the converged state to lam.
+
+        * extrapolation (``lam_prev_step``, the last converged increment, and not ``tangent_predictor``): that
+          increment scaled to this one, corrected by ``self.predictors`` (contact nodes at their committed
+          gaps; option ``predictor`` "contact" only), then the Dirichlet values at lam on their nodes;
+        * tangent predictor (``tangent_predictor`` without ``lam_prev_step``): the converged state, the
+          Dirichlet values too, so that Newton's first correction imposes their increment through the
+          consistent tangent, which spreads it over the body (imposing a large increment on the boundary
+          nodes alone can invert the cells next to them);
+        * both given (the first increment of a load step after another, option ``predictor`` "contact": the
+          load stepping offers the last increment then): whichever of the two starts with
+          the smaller residual (two residual evaluations). A step that goes on moving the tools and
+          boundaries as the last one did is extrapolated (the tangent predictor leaves every contact node
+          where it was while the tool moves into it: the 3-D quarter punch's second step took 36 Newton
+          iterations and a cut-back to get going); one that reverses them (unloading) takes the tangent;
+        * neither: the converged state with the Dirichlet values at lam."""
+        extrapolate = bool(lam_prev_step) and lam_prev_step > 0
+        if tangent_predictor and extrapolate:
+            self._predict(lam, lam_prev_step, False)
+            r_extrapolated = self._predictor_residual()
+            self._predict(lam, None, True)
+            r_tangent = self._predictor_residual()
+            chosen = "extrapolated" if r_extrapolated < r_tangent else "tangent"
+            if chosen == "extrapolated":
+                self._predict(lam, lam_prev_step, False)
+            self.log(f"  new load step at {self.lam_converged:.6g}: {chosen} predictor (|R| {r_extrapolated:.3e} "
+                     f"extrapolated, {r_tangent:.3e} tangent)")
+            return
+        self.w.x.array[:] = self.w_n.x.array
+        if extrapolate and not tangent_predictor:
+            s = (lam - self.lam_converged) / lam_prev_step
+            self.w.x.array[:] += s * (self.w_n.x.array - self.w_nm1.x.array)
+            if self.options["predictor"] == "contact":
+                for predict in self.predictors:
+                    predict(lam)
+                self.w.x.scatter_forward()
+        dc.petsc_vec(self.w).copy(self.x)
+        if not tangent_predictor:
+            fpetsc.set_bc(self.x, self.bcs)
+        self.x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+
+    def _predictor_residual(self) -> float:
+        """|R| at ``self.x`` (collective; inf where the material update fails or the residual is not finite)."""
+        self._residual(self.snes, self.x, self.b)
+        r = self.b.norm()
+        self._bad_update = False
+        return r if np.isfinite(r) else math.inf
 
     def _mumps_info(self):
         try:
