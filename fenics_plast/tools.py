@@ -58,19 +58,21 @@ def contact_length_scale(mesh, facet_tags, tag):
     ref_facets = basix.topology(getattr(basix.CellType, cell_name))[fdim]
     order = [0, 1, 3, 2] if cell_name == "quadrilateral" else [0, 1, 2]
     facets = facet_tags.find(tag)
-    total, count = 0.0, 0
-    for f in facets[facets < mesh.topology.index_map(fdim).size_local]:
-        for c in f2c.links(f):
-            v = ref_facets[int(np.flatnonzero(c2f.links(c) == f)[0])]
-            if tdim == 3:
-                xyz = mesh.geometry.x[dc.geometry_dofs(mesh)[c], :3]
-                total += _cell_volume(xyz) / _facet_area(xyz[v])
-            else:
-                xy = mesh.geometry.x[dc.geometry_dofs(mesh)[c], :2]
-                p, q = xy[order], np.roll(xy[order], -1, axis=0)
-                area = 0.5 * abs(float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1])))
-                total += area / float(np.linalg.norm(xy[v[1]] - xy[v[0]]))
-            count += 1
+    pairs = [(f, c) for f in facets[facets < mesh.topology.index_map(fdim).size_local] for c in f2c.links(f)]
+    cells = np.array([c for _, c in pairs], dtype=np.int64)
+    local = np.array([int(np.flatnonzero(c2f.links(c) == f)[0]) for f, c in pairs], dtype=np.int64)
+    total, count = 0.0, len(pairs)
+    if count:
+        verts = np.asarray(ref_facets)[local]                       # (n, vertices per facet)
+        x = mesh.geometry.x[dc.geometry_dofs(mesh)[cells], :tdim]   # (n, vertices per cell, tdim)
+        if tdim == 3:
+            total = float(np.sum(_cell_volume(x) / _facet_area(np.take_along_axis(x, verts[:, :, None], 1))))
+        else:
+            p = x[:, order]
+            q = np.roll(p, -1, axis=1)
+            area = 0.5 * np.abs(np.sum(p[..., 0] * q[..., 1] - q[..., 0] * p[..., 1], axis=1))
+            n = np.arange(count)
+            total = float(np.sum(area / np.linalg.norm(x[n, verts[:, 1]] - x[n, verts[:, 0]], axis=1)))
     total, count = mesh.comm.allreduce(total, op=MPI.SUM), mesh.comm.allreduce(count, op=MPI.SUM)
     if count == 0:
         raise ValueError(f"no facet is tagged {tag}")
@@ -81,34 +83,34 @@ _GAUSS2 = (0.5 - 0.5 / math.sqrt(3.0), 0.5 + 0.5 / math.sqrt(3.0))   # 2-point G
 
 
 def _cell_volume(xyz):
-    """Volume [mm^3] of a first-order tetrahedron (4, 3) or hexahedron (8, 3; basix vertex order
+    """Volumes [mm^3] (n,) of first-order tetrahedra (n, 4, 3) or hexahedra (n, 8, 3; basix vertex order
     v = i + 2 j + 4 k at reference (i, j, k)): exact, 2x2x2 Gauss of det J."""
-    if len(xyz) == 4:
-        return abs(float(np.linalg.det(xyz[1:] - xyz[0]))) / 6.0
-    c = xyz.reshape(2, 2, 2, 3)                  # [k, j, i, :]
-    vol = 0.0
+    if xyz.shape[1] == 4:
+        return np.abs(np.linalg.det(xyz[:, 1:] - xyz[:, :1])) / 6.0
+    c = xyz.reshape(-1, 2, 2, 2, 3)                  # [cell, k, j, i, :]
+    vol = np.zeros(len(xyz))
     for r in _GAUSS2:
         for s in _GAUSS2:
             for t in _GAUSS2:
                 w = [(1 - r, r), (1 - s, s), (1 - t, t)]
-                d_r = sum(w[1][j] * w[2][k] * (c[k, j, 1] - c[k, j, 0]) for j in (0, 1) for k in (0, 1))
-                d_s = sum(w[0][i] * w[2][k] * (c[k, 1, i] - c[k, 0, i]) for i in (0, 1) for k in (0, 1))
-                d_t = sum(w[0][i] * w[1][j] * (c[1, j, i] - c[0, j, i]) for i in (0, 1) for j in (0, 1))
-                vol += 0.125 * abs(float(np.linalg.det(np.array([d_r, d_s, d_t]))))
+                d_r = sum(w[1][j] * w[2][k] * (c[:, k, j, 1] - c[:, k, j, 0]) for j in (0, 1) for k in (0, 1))
+                d_s = sum(w[0][i] * w[2][k] * (c[:, k, 1, i] - c[:, k, 0, i]) for i in (0, 1) for k in (0, 1))
+                d_t = sum(w[0][i] * w[1][j] * (c[:, 1, j, i] - c[:, 0, j, i]) for i in (0, 1) for j in (0, 1))
+                vol += 0.125 * np.abs(np.linalg.det(np.stack([d_r, d_s, d_t], axis=1)))
     return vol
 
 
 def _facet_area(xyz):
-    """Area [mm^2] of a triangle (3, 3) or a bilinear quadrilateral (4, 3; basix order v = i + 2 j):
+    """Areas [mm^2] (n,) of triangles (n, 3, 3) or bilinear quadrilaterals (n, 4, 3; basix order v = i + 2 j):
     exact, 2x2 Gauss of |dx/dr x dx/ds|."""
-    if len(xyz) == 3:
-        return 0.5 * float(np.linalg.norm(np.cross(xyz[1] - xyz[0], xyz[2] - xyz[0])))
-    area = 0.0
+    if xyz.shape[1] == 3:
+        return 0.5 * np.linalg.norm(np.cross(xyz[:, 1] - xyz[:, 0], xyz[:, 2] - xyz[:, 0]), axis=1)
+    area = np.zeros(len(xyz))
     for r in _GAUSS2:
         for s in _GAUSS2:
-            d_r = (1 - s) * (xyz[1] - xyz[0]) + s * (xyz[3] - xyz[2])
-            d_s = (1 - r) * (xyz[2] - xyz[0]) + r * (xyz[3] - xyz[1])
-            area += 0.25 * float(np.linalg.norm(np.cross(d_r, d_s)))
+            d_r = (1 - s) * (xyz[:, 1] - xyz[:, 0]) + s * (xyz[:, 3] - xyz[:, 2])
+            d_s = (1 - r) * (xyz[:, 2] - xyz[:, 0]) + r * (xyz[:, 3] - xyz[:, 1])
+            area += 0.25 * np.linalg.norm(np.cross(d_r, d_s), axis=1)
     return area
 
 
