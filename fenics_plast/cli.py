@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import SceneError
 from .keys_doc import keys_markdown
-from .problem import SceneError, load_problem
 
 EXIT_OK, EXIT_RUN_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -50,6 +50,7 @@ def _say(msg: str) -> None:
 
 
 def cmd_run(args) -> int:
+    from .problem import load_problem      # the dolfinx stack, imported while libgmsh loads (main)
     try:
         problem = load_problem(args.scene, args.set or ())
     except SceneError as e:
@@ -296,6 +297,7 @@ def _csv_cell(v):
 
 
 def cmd_point(args) -> int:
+    from .problem import load_problem
     try:
         problem = load_problem(args.scene, args.set or ())
     except SceneError as e:
@@ -478,6 +480,9 @@ def _library_warnings_only() -> None:
 def main(argv: list[str] | None = None) -> int:
     _library_warnings_only()
     args = build_parser().parse_args(argv)
+    if args.func is cmd_run:        # libgmsh loads in a thread while cmd_run imports dolfinx (preload.py)
+        from .preload import start_gmsh
+        start_gmsh()
     return args.func(args)
 
 

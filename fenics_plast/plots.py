@@ -100,10 +100,11 @@ def _read_summary(out_dir: Path) -> dict:
 # drawing
 
 
-def _draw_figures(out_dir: Path, figures, title, render) -> list[Path]:
-    """Draw each figure whose CSV is in ``out_dir`` (a missing column is a PlotError)."""
+def _draw_figures(out_dir: Path, figures, title, render, processes=1) -> list[Path]:
+    """Draw each figure whose CSV is in ``out_dir`` (a missing column is a PlotError); ``processes`` > 1
+    draws them in that many forked processes at most (only from a process that may fork: the plot worker)."""
     tables: dict[str, dict[str, np.ndarray]] = {}
-    paths = []
+    paths, jobs = [], []
     for fig in figures:
         src = out_dir / fig.source
         if not src.exists():
@@ -118,13 +119,20 @@ def _draw_figures(out_dir: Path, figures, title, render) -> list[Path]:
             raise PlotError(f"{src}: no column(s) {', '.join(missing)} for {fig.name}.png "
                             f"(columns: {', '.join(data)})")
         path = out_dir / f"{fig.name}.png"
-        if render:
-            full_title = fig.title + (f"\n{title}" if title else "")
-            if isinstance(fig, Lines):
-                _draw_lines(path, fig, data, full_title)
-            else:
-                _draw_cells(path, fig, data, full_title)
+        full_title = fig.title + (f"\n{title}" if title else "")
+        jobs.append((_draw_lines if isinstance(fig, Lines) else _draw_cells, path, fig, data, full_title))
         paths.append(path)
+    if not render:
+        return paths
+    if processes > 1 and len(jobs) > 1:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+        with ProcessPoolExecutor(min(processes, len(jobs)), mp_context=multiprocessing.get_context("fork")) as pool:
+            for done in [pool.submit(*job) for job in jobs]:
+                done.result()           # a child's exception is raised here
+    else:
+        for draw, *args in jobs:
+            draw(*args)
     return paths
 
 
@@ -294,10 +302,13 @@ def _check_names(out_dir: Path, settings: Mapping[str, Any]) -> None:
 
 
 def draw_declared(out_dir: str | Path, settings: Mapping[str, Any] | None = None, title: str | None = None,
-                  references: Mapping[str, Any] | None = None, render: bool = True) -> list[Path]:
+                  references: Mapping[str, Any] | None = None, render: bool = True,
+                  processes: int = 1) -> list[Path]:
     """Draw the scene's declared figures into ``out_dir`` from its CSV files; ``settings=None``
     reads the settings, title and references from the folder's summary.json (``fenics-plast plot DIR``).
-    Returns the PNG paths; raises :class:`PlotError` for a folder that cannot be plotted."""
+    ``processes`` > 1: the figures are drawn in that many forked processes at most (the plot worker does;
+    a process with MPI or PETSc running must not fork). Returns the PNG paths; raises :class:`PlotError`
+    for a folder that cannot be plotted."""
     out_dir = Path(out_dir)
     if not out_dir.is_dir():
         raise PlotError(f"{out_dir}: no such directory")
@@ -313,4 +324,4 @@ def draw_declared(out_dir: str | Path, settings: Mapping[str, Any] | None = None
     _check_names(out_dir, settings)
     if not (out_dir / "history.csv").exists():
         raise PlotError(f"{out_dir}: no history.csv (not a results folder of `fenics-plast run`)")
-    return _draw_figures(out_dir, declared_figures(settings, references), title, render)
+    return _draw_figures(out_dir, declared_figures(settings, references), title, render, processes)

@@ -212,3 +212,17 @@ def test_point_table_via_cli(tmp_path):
     assert header[0] == "t" and len(lines) >= 3
     assert lines[-1].split(",")[0] == "1.0"
     assert all(len(line.split(",")) == len(header) for line in lines)
+
+
+def test_gmsh_library_preloads_in_a_thread():
+    """fenics_plast.preload loads the library that ``import gmsh`` loads, in a thread (the run overlaps it
+    with its other imports): after the thread, libgmsh is mapped into the process before gmsh is imported."""
+    code = ("import sys\n"
+            "from fenics_plast.preload import start_gmsh\n"
+            "start_gmsh().join()\n"
+            "assert 'gmsh' not in sys.modules\n"
+            "maps = open('/proc/self/maps').read()\n"
+            "print('libgmsh' in maps)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "True"

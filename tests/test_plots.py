@@ -162,16 +162,17 @@ def test_plot_worker_draws_the_same_pngs_as_in_process(results, tmp_path):
     src = results["taylor_bar"]
     summary = json.loads((src / "summary.json").read_text())
     args = (summary["scene_settings"], summary["scene"], summary.get("references"))
-    a, b = tmp_path / "worker", tmp_path / "in_process"
-    for d in (a, b):
+    a, b, c = tmp_path / "worker", tmp_path / "in_process", tmp_path / "forked"
+    for d in (a, b, c):
         shutil.copytree(src, d)
         for png in d.glob("*.png"):
             png.unlink()
     paths = PlotWorker().draw(a, *args)
     draw_declared(b, args[0], title=args[1], references=args[2])
+    draw_declared(c, args[0], title=args[1], references=args[2], processes=2)   # what the worker does
     assert sorted(Path(p).name for p in paths) == sorted(f + ".png" for f in FIGURES["taylor_bar"])
     for p in paths:
-        assert Path(p).read_bytes() == (b / Path(p).name).read_bytes()
+        assert Path(p).read_bytes() == (b / Path(p).name).read_bytes() == (c / Path(p).name).read_bytes()
     history = a / "history.csv"
     history.write_text(history.read_text().replace("length_mm", "other_mm"))
     with pytest.raises(RuntimeError, match="length_mm"):
