@@ -9,8 +9,8 @@
     python benchmarks/bench_static.py --before none --rates    # Newton's observed convergence orders
 
 "Before" is the tree of git revision ``--before`` (default: the commit before the static-speed work),
-exported with ``git archive`` into a temporary folder and run from there (after a short untimed run that
-compiles its numba kernels); "after" is this tree. All columns run one after the other in this invocation,
+exported with ``git archive`` into a temporary folder and run from there; "after" is this tree. Each tree first
+runs each scene once untimed, which compiles its numba kernels into its cache. All columns run one after the other in this invocation,
 as the CLI (``fenics-plast run``) in a process of their own, under cProfile and PETSc's ``-log_view`` (the
 same instruments for all; cProfile adds ~3 % here), without XDMF. Per run:
 
@@ -66,7 +66,6 @@ LARGE = ("demos/punch_stretching_3d.toml",
 PROCESS_SCENES = ("demos/punch_stretching.toml", "demos/taylor_bar.toml")
 
 #: a short run that compiles a tree's numba kernels before the timed ones
-WARM_UP = ("demos/punch_stretching.toml", ["--set", "tools.punch.path.y=[0.0, 2.0]", "--set", "output.plots=false"])
 
 BLAS_DIRS = {"reference": "/usr/lib/x86_64-linux-gnu/blas", "openblas": "/usr/lib/x86_64-linux-gnu/openblas-serial"}
 
@@ -229,9 +228,11 @@ def main():
                 runs = [("before", old, blas) for blas in (a.before_blas or [a.blas])] + runs
             except (subprocess.CalledProcessError, OSError) as e:
                 print(f"bench_static: no revision {a.before} to compare with ({e}): after only", flush=True)
-        for tag, tree, _ in runs[-2:]:     # compiles the numba kernels into each tree's cache (not timed)
-            if a.scenes:
-                run_cli(tree, *WARM_UP, tmp / f"warm_up_{tag}", profile=False)
+        # each tree runs each scene once untimed first: its numba kernels compile into the tree's cache (a short
+        # 2-D run did not compile all that the full scenes need: a "before" column then timed the compiler)
+        for tag, tree in dict((tag, tree) for tag, tree, _ in runs).items():
+            for name in a.scenes:
+                run_cli(tree, *SCENES[name], tmp / f"warm_up_{tag}_{name}", profile=False)
         for name in a.scenes:
             scene, sets = SCENES[name]
             contact = contact_cost(scene, sets)

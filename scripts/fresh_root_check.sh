@@ -14,7 +14,8 @@
 #   3. run in it, with chroot, the Dockerfile's own steps: this script reads the Dockerfile (its ARG
 #      DEBIAN_RELEASE set to the suite, as `docker build --build-arg` would) and runs its WORKDIR, ENV
 #      and RUN lines (COPY . . is step 2), so the two cannot drift apart;
-#   4. run the README's two commands there: `make demo`, then `make test`.
+#   4. run the README's two commands there: `make demo`, then `make test` (and, with FRESH_ROOT_SLOW=1,
+#      the slow tests: `pytest -m slow`).
 # With no argument both suites run at the same time, each in its own root (its lines prefixed with
 # [suite]); one failing does not stop the other, and the exit status is non-zero if either failed.
 #
@@ -31,8 +32,8 @@
 # Needs root (debootstrap, mount, chroot); apt-installs debootstrap on the host if it is missing.
 # Environment: FRESH_ROOT_CACHE, FRESH_ROOT_TMP (where the root is made, default /var/tmp),
 # FRESH_ROOT_MIRROR and FRESH_ROOT_SECURITY_MIRROR (instead of the host's), FRESH_ROOT_KEEP=1 (keep
-# the root), FRESH_ROOT_DRY_RUN=1 (print the plan: suite, mirrors, the Dockerfile's steps; build
-# nothing, needs no root).
+# the root), FRESH_ROOT_SLOW=1 (also the slow tests), FRESH_ROOT_DRY_RUN=1 (print the plan: suite,
+# mirrors, the Dockerfile's steps; build nothing, needs no root).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cache="${FRESH_ROOT_CACHE:-/var/cache/fenics-plast-fresh}"
@@ -412,5 +413,9 @@ step "Dockerfile RUN steps" dockerfile_runs
 step "make demo" in_root "make demo"
 step "make test" in_root "make test"
 tail -n 3 "$logs/$((${#step_names[@]}))-make_test.log" | sed 's/^/    | /'
+if [ "${FRESH_ROOT_SLOW:-0}" = 1 ]; then
+    step "slow tests" in_root ".venv/bin/python -m pytest -q -m slow tests"
+    tail -n 3 "$logs/$((${#step_names[@]}))-slow_tests.log" | sed 's/^/    | /'
+fi
 report
 say "passed: the README's two commands work on a fresh minimal $suite root"
