@@ -6,8 +6,8 @@ input. :meth:`PlotWorker.draw` sends it the folder and the scene's settings once
 complete, and returns when the PNGs are written (the run ends after its plots, as before: nothing is
 left running). The figures are :func:`fenics_plast.plots.draw_declared`'s, the same as in process and
 as ``fenics-plast plot DIR``; the worker, which runs no MPI or PETSc, draws them in forked processes, one
-per available core (the default Taylor bar's three figures: 0.55 -> 0.37 s). If the run stops early the worker sees its input close and exits
-without drawing.
+per available core (the default Taylor bar's three figures: 0.55 -> 0.37 s). If the run stops early the
+worker sees its input close and exits without drawing.
 
 Protocol: one JSON line on stdin, ``{"out_dir", "settings", "title", "references"}``; one JSON line
 on stdout, ``{"paths": [...]}`` or ``{"error": "..."}``. Standard library, numpy and matplotlib only.

@@ -223,7 +223,8 @@ def _draw_cells(path: Path, spec: Cells, data, title) -> None:
 
 def cells_table(V, positions, cell_values, value_name: str) -> dict[str, np.ndarray]:
     """Columns x1, y1, ..., x4, y4 [mm] (cyclic vertex order) and ``value_name`` of every cell,
-    gathered on rank 0 (other ranks get empty columns), for ``RunOutput.write_csv``.
+    gathered on rank 0 (other ranks get empty columns) in the mesh file's cell order (the same rows
+    whatever the number of ranks), for ``RunOutput.write_csv``.
 
     V : the P1 vector FunctionSpace of the nodes (dolfinx; its dofmap: cell -> node block).
     positions : (n_local_nodes, 2) current node positions, indexed like V's dof blocks.
@@ -239,9 +240,14 @@ def cells_table(V, positions, cell_values, value_name: str) -> dict[str, np.ndar
     dg = np.asarray(dc.cell_dofs(cell_values.function_space)).reshape(-1)[:n_own]
     val = np.asarray(cell_values.x.array)[dg]
     local = np.column_stack([xy, val])
-    parts = mesh.comm.gather(local, root=0)
+    original = np.asarray(mesh.topology.original_cell_index, dtype=np.int64)[:n_own]
+    parts = mesh.comm.gather((original, local), root=0)
     names = [f"{c}{k}" for k in range(1, 5) for c in "xy"] + [value_name]
-    table = np.vstack(parts) if parts is not None else np.zeros((0, len(names)))
+    if parts is None:
+        table = np.zeros((0, len(names)))
+    else:
+        order = np.argsort(np.concatenate([p[0] for p in parts]), kind="stable")
+        table = np.vstack([p[1] for p in parts])[order]
     return {n: table[:, j] for j, n in enumerate(names)}
 
 

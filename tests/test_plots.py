@@ -244,3 +244,19 @@ def test_run_draws_in_process_when_the_plot_worker_is_lost(results, tmp_path):
     assert any("drawing the plots in this process" in s for s in said), said
     for f in FIGURES["taylor_bar"]:
         assert_png(d / f"{f}.png")
+
+
+@pytest.mark.mpi
+def test_final_shape_rows_are_the_same_on_two_ranks(tmp_path):
+    """final_shape.csv lists the cells in the mesh file's order, so a run on 2 ranks writes the rows of
+    the serial run (before: in the order of the partition), equal to round-off."""
+    from scene_runs import run_scene
+    short = ["analysis.end_time=5", "output.plots=false", "output.xdmf=false", "output.history_points=3"]
+    tables = []
+    for ranks in (1, 2):
+        run_scene(DEMOS / "taylor_bar.toml", tmp_path / f"np{ranks}", *short, np_ranks=ranks)
+        tables.append(read_csv(tmp_path / f"np{ranks}" / "final_shape.csv"))
+    a, b = tables
+    assert list(a) == list(b) and len(a["eqps"]) == 216     # 6 x 36 cells
+    for k in a:
+        assert np.allclose(a[k], b[k], rtol=1e-9, atol=1e-9), k
