@@ -125,15 +125,49 @@ def _draw_figures(out_dir: Path, figures, title, render, processes=1) -> list[Pa
     if not render:
         return paths
     if processes > 1 and len(jobs) > 1:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-        with ProcessPoolExecutor(min(processes, len(jobs)), mp_context=multiprocessing.get_context("fork")) as pool:
-            for done in [pool.submit(*job) for job in jobs]:
-                done.result()           # a child's exception is raised here
+        _draw_forked(jobs, processes)
     else:
         for draw, *args in jobs:
             draw(*args)
     return paths
+
+
+def _draw_forked(jobs, processes: int) -> None:
+    """Draw ``jobs`` in at most ``processes`` forked children, all forked before any thread exists (no pool,
+    whose helper threads would make later forks unsafe); a child's failure is raised here as a PlotError
+    naming it."""
+    import multiprocessing
+    ctx = multiprocessing.get_context("fork")
+    children = []
+    for k in range(min(processes, len(jobs))):
+        receive, send = ctx.Pipe(duplex=False)
+        child = ctx.Process(target=_draw_child, args=(jobs[k::processes], send))
+        child.start()
+        send.close()
+        children.append((child, receive))
+    failures = []
+    for child, receive in children:
+        try:
+            message = receive.recv()
+        except EOFError:
+            message = "a plotting process ended without an answer"
+        child.join()
+        if message:
+            failures.append(message)
+    if failures:
+        raise PlotError("; ".join(failures))
+
+
+def _draw_child(jobs, send) -> None:
+    """The body of a forked plotting process: draw ``jobs``, send None, or the error as text."""
+    try:
+        for draw, *args in jobs:
+            draw(*args)
+        send.send(None)
+    except Exception as e:  # noqa: BLE001 - reported to the parent
+        send.send(f"{type(e).__name__}: {e}")
+    finally:
+        send.close()
 
 
 def preload() -> None:
