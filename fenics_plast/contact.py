@@ -308,16 +308,22 @@ class ContactPair:
     def nodal_gaps(self):
         """Gaps [mm] at the owned nodes of the pair's facets (current state), numpy (n,)."""
         s = self.contact.solver
+        X, idx = self._owned_nodes()
+        g, _ = self.tool.gap_np(X + s.w.x.array[idx], s.lam)
+        return g
+
+    def _owned_nodes(self):
+        """(reference positions (n, gdim) [mm], their displacement entries in the solver's w (n, gdim)) of
+        the owned nodes of the pair's facets; built on first use."""
         if not hasattr(self, "_nodes"):
+            s = self.contact.solver
             Vc, vmap = s.displacement_space()
             facets = self.facet_tags.find(self.tag)
             blocks = fem.locate_dofs_topological(Vc, s.mesh.topology.dim - 1, facets)
             blocks = blocks[blocks < Vc.dofmap.index_map.size_local]
             X = Vc.tabulate_dof_coordinates()[blocks, :self.gdim]
             self._nodes = (X, np.asarray(vmap).reshape(-1, self.gdim)[blocks])
-        X, idx = self._nodes
-        g, _ = self.tool.gap_np(X + s.w.x.array[idx], s.lam)
-        return g
+        return self._nodes
 
     def keep_gaps(self, lam) -> None:
         """Predictor of an increment to load factor ``lam``: move each owned node of the pair that was in
@@ -333,8 +339,7 @@ class ContactPair:
         again (measured: the 3-D quarter punch's late increments took 9 to 15 iterations, 5 to 7 with
         this predictor)."""
         s = self.contact.solver
-        self.nodal_gaps()           # builds self._nodes on first use
-        X, idx = self._nodes
+        X, idx = self._owned_nodes()
         if not len(X):
             return
         g_n, _ = self.tool.gap_np(X + self.contact.w_c.x.array[idx], float(self.contact.lam_c.value))
