@@ -67,7 +67,19 @@ LARGE = ("demos/punch_stretching_3d.toml",
 #: the small scenes whose process time should be dominated by their solve
 PROCESS_SCENES = ("demos/punch_stretching.toml", "demos/taylor_bar.toml")
 
-#: a short run that compiles a tree's numba kernels before the timed ones
+#: a CLI run under cProfile that ends as the command does (``cli.exit_promptly``, where the tree has it): the
+#: profile is written first (``python -m cProfile`` writes it at an exit that the prompt one skips)
+PROFILED = """import cProfile, sys
+from fenics_plast import cli
+profile = cProfile.Profile()
+status = profile.runcall(cli.main, {args!r})
+profile.dump_stats({prof!r})
+getattr(cli, "exit_promptly", sys.exit)(status)"""
+
+#: the environment the runs start from, as this script found it: importing fenics_plast here (the contact
+#: cost, in process) sets NUMBA_CACHE_DIR to the kernel cache of this tree's sources, which a run of another
+#: tree must not inherit (it would compile into, or load from, the wrong tree's cache)
+ENVIRONMENT = dict(os.environ)
 
 BLAS_DIRS = {"reference": "/usr/lib/x86_64-linux-gnu/blas", "openblas": "/usr/lib/x86_64-linux-gnu/openblas-serial"}
 
@@ -108,12 +120,13 @@ def profile_times(path: Path) -> dict:
 def run_cli(tree: Path, scene: str, sets: list, out: Path, ranks: int = 1, blas: str | None = None,
             profile: bool = True, as_shipped: bool = False) -> dict:
     """One CLI run of ``scene`` with the package of ``tree``; its figures. No XDMF unless ``as_shipped``."""
-    env = dict(os.environ, PYTHONPATH=str(tree), PETSC_OPTIONS=f"-log_view :{out}.petsclog")
+    env = dict(ENVIRONMENT, PYTHONPATH=str(tree), PETSC_OPTIONS=f"-log_view :{out}.petsclog")
+    env.pop("PYTHONDONTWRITEBYTECODE", None)    # as a user runs: the bytecode compiled once (in the warm-up)
     if blas:
         env["LD_LIBRARY_PATH"] = BLAS_DIRS[blas]
-    prof = ["-m", "cProfile", "-o", f"{out}.prof"] if profile else []
-    cmd = [sys.executable, *prof, "-m", "fenics_plast.cli", "run", str(ROOT / scene), "--out", str(out),
-           *([] if as_shipped else NO_FILES), *sets]
+    args = ["run", str(ROOT / scene), "--out", str(out), *([] if as_shipped else NO_FILES), *sets]
+    cmd = [sys.executable, "-c", PROFILED.format(prof=f"{out}.prof", args=args)] if profile else \
+        [sys.executable, "-m", "fenics_plast.cli", *args]
     if ranks > 1:
         cmd = ["mpirun", "-n", str(ranks), *cmd]
         env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")

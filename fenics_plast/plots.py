@@ -171,11 +171,16 @@ def _draw_child(jobs, send) -> None:
 
 
 def preload() -> None:
-    """Import the parts of matplotlib the figures use (what :class:`~fenics_plast.plot_worker.PlotWorker`
-    does while the run computes)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: F401
-    from matplotlib.collections import PolyCollection  # noqa: F401
-    _figure().add_subplot()
+    """Import the parts of matplotlib the figures use and draw one figure of each kind into memory, so that
+    fonts, glyphs and colour maps are loaded (what :class:`~fenics_plast.plot_worker.PlotWorker` does while
+    the run computes; the children it forks to draw inherit them: the Taylor bar's figures 0.43 -> 0.35 s)."""
+    import io
+    lines = Lines(name="warm", x="x", ys={"y": "y"}, xlabel="x", ylabel="y", title="", hlines={"h": 0.5})
+    cells = Cells(name="warm", value="v", label="v", title="", source="")
+    for draw, spec, data in ((_draw_lines, lines, {"x": np.array([0.0, 1.0]), "y": np.array([0.0, 1.0])}),
+                             (_draw_cells, cells, {**{c: np.array([0.0, 1.0]) for c in _poly_columns()},
+                                                   "v": np.array([1.0, 2.0])})):
+        draw(io.BytesIO(), spec, data, "warm-up")
 
 
 def _figure(size=(6.0, 4.2)):

@@ -2,6 +2,7 @@
 (with a stand-in runner); the deformation-table reader; a material-point path that fails exits 1
 with one error line."""
 import json
+import os
 import subprocess
 import sys
 import textwrap
@@ -226,3 +227,26 @@ def test_gmsh_library_preloads_in_a_thread():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "True"
+
+
+def test_prompt_exit_flushes_and_keeps_the_status(tmp_path):
+    """``exit_promptly`` (the command's end, skipping the interpreter's teardown) still delivers what was
+    written but not flushed (standard streams, a logging handler's file), finalizes PETSc (``-log_view`` is
+    printed there) and MPI, and exits with the status it is given."""
+    log = tmp_path / "log.txt"
+    petsc_log = tmp_path / "petsc.txt"
+    code = ("import logging, sys\n"
+            "from petsc4py import PETSc\n"
+            "from mpi4py import MPI\n"
+            "from fenics_plast import cli\n"
+            f"logging.basicConfig(filename={str(log)!r}, level=logging.INFO)\n"
+            "logging.getLogger('t').info('logged line')\n"
+            "sys.stdout.write('no newline, not flushed')\n"
+            "cli.exit_promptly(3)\n"
+            "print('not reached')\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                       env={**os.environ, "PETSC_OPTIONS": f"-log_view :{petsc_log}"})
+    assert r.returncode == 3, r.stderr
+    assert r.stdout == "no newline, not flushed"
+    assert "logged line" in log.read_text()
+    assert "PETSc Performance Summary" in petsc_log.read_text()
