@@ -481,7 +481,8 @@ def main(argv: list[str] | None = None) -> int:
     _library_warnings_only()
     args = build_parser().parse_args(argv)
     if args.func is cmd_run:        # libgmsh loads in a thread while cmd_run imports dolfinx (preload.py)
-        from .preload import start_gmsh
+        from .preload import single_process_mpi, start_gmsh
+        single_process_mpi()
         start_gmsh()
     return args.func(args)
 
@@ -493,9 +494,9 @@ def console() -> None:
 
 
 def exit_promptly(status: int | None) -> None:
-    """End the process once everything is written, without the interpreter's teardown: freeing numba's
-    LLVM state and every dolfinx and PETSc object one by one costs ~0.3 s, as much as a fifth of a small
-    scene's solve. Every output is closed by then (fields, history, summary, plots, checkpoints: the runners
+    """End the process once everything is written, without the interpreter's teardown: freeing the compiled
+    kernels' LLVM state and every dolfinx and PETSc object one by one costs ~0.3 s, as much as a fifth of a
+    small scene's solve. Every output is closed by then (fields, history, summary, plots, checkpoints: the runners
     close them before returning); what is left is flushed here: the standard streams, logging, PETSc
     (``-log_view`` prints at its finalize) and MPI (finalized, as mpirun expects)."""
     sys.stdout.flush()

@@ -250,3 +250,17 @@ def test_prompt_exit_flushes_and_keeps_the_status(tmp_path):
     assert r.stdout == "no newline, not flushed"
     assert "logged line" in log.read_text()
     assert "PETSc Performance Summary" in petsc_log.read_text()
+
+
+@pytest.mark.parametrize("given, expected", [({}, "ob1"), ({"OMPI_MCA_pml": "ucx"}, "ucx"),
+                                             ({"OMPI_COMM_WORLD_SIZE": "2"}, None), ({"PMI_RANK": "0"}, None)])
+def test_single_process_mpi_only_without_a_launcher(monkeypatch, given, expected):
+    """A run no launcher started takes OpenMPI's ob1 layer (no network probing at MPI's start); a layer the
+    user chose, and a process that mpirun (or another launcher) started, are left as they are."""
+    from fenics_plast import preload
+    for var in (*preload.LAUNCHED, "OMPI_MCA_pml"):
+        monkeypatch.delenv(var, raising=False)
+    for var, value in given.items():
+        monkeypatch.setenv(var, value)
+    preload.single_process_mpi()
+    assert os.environ.get("OMPI_MCA_pml") == expected
