@@ -220,11 +220,15 @@ def tool_of(name, spec, time_scale=1.0):
                 **tool_values(spec))
 
 
-def tools_of(problem) -> dict:
+def tools_of(problem, comm) -> dict:
     """{name: tool} of the scene's [tools], their paths functions of the analysis's time: the pseudo-time
-    (static) or t [s] (explicit: the paths are written in µs)."""
+    (static) or t [s] (explicit: the paths are written in µs). A meshed tool reads its surface (rank 0,
+    collective: :func:`fenics_plast.meshed_tools.meshed_tool`; SceneError for a file or group it cannot use)."""
+    from fenics_plast.meshed_tools import SHAPE, meshed_tool
     time_scale = US if problem.explicit else 1.0
-    return {n: tool_of(n, t, time_scale=time_scale) for n, t in problem.tools.items()}
+    dim = 3 if problem.mesh.geometry == "3d" else 2
+    return {n: meshed_tool(n, t, dim, tool_path(t.path, time_scale, dim=dim), comm, problem.path.parent)
+            if t.shape == SHAPE else tool_of(n, t, time_scale=time_scale) for n, t in problem.tools.items()}
 
 
 def tool_force_of(problem, pairs, dim) -> Callable[[str], np.ndarray]:

@@ -146,7 +146,7 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
         for c, f in zip(b.components, b.of_seconds()):
             fns[c] = f
         solver.add_traction(ft, b.tag, tuple(fn or (lambda t: 0.0) for fn in fns))
-    tools = tools_of(problem)
+    tools = tools_of(problem, comm)
     specs = contact_pairs(problem, mesh, ft, groups, material, tools)
     pairs = {name: solver.add_contact(p.tool, ft, p.tag, **p.options()) for name, p in specs.items()}
     # per node (regions, expressions of x, y, z) [mm/s]

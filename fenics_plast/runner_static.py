@@ -162,7 +162,7 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None) -> Simp
     s = StaticSolver(kin, material, element=problem.mesh.element, log=log, progress=progress, **opts)
     Vc, vmap = s.displacement_space()
     constrained = apply_boundary(problem, s, ft, boundaries(problem, Vc, ft, groups))
-    tools = tools_of(problem)
+    tools = tools_of(problem, comm)
     specs = contact_pairs(problem, mesh, ft, groups, material, tools)
     contact, pairs = add_contact(s, ft, specs)
     s.setup()

@@ -28,6 +28,7 @@ from fenics_plast.hardening_laws import laws as hardening_laws
 from fenics_plast.quantities.registry import KINDS, kind_keys, quantity_doc, taking
 from fenics_plast.scene_key import OPTIONAL, REQUIRED, Key, number_text
 from fenics_plast.state_variables import outputs as state_outputs
+from fenics_plast import meshed_tools
 from fenics_plast.tool_shapes import shapes as tool_shapes
 
 __all__ = ["SCHEMA", "SECTIONS", "Key", "Table", "REQUIRED", "OPTIONAL", "COMPONENTS", "COMPONENTS_3D", "GEOMETRIES",
@@ -145,12 +146,13 @@ def _tools_table() -> Table:
     """``tools.<name>``, gathered from the shapes' declarations (:mod:`fenics_plast.tool_shapes`,
     :func:`_gathered`), and the tool's path."""
     shapes = tool_shapes().values()
-    by_dim = {d: ", ".join(s.name for s in shapes if d in s.dims) for d in (2, 3)}
-    keys = {"shape": Key("str", REQUIRED, "; ".join(s.doc for s in shapes) + ".", choices=TOOL_SHAPES)}
-    keys.update(_gathered(((s.name, s.params) for s in shapes), "shape"))
+    by_dim = {d: ", ".join([s.name for s in shapes if d in s.dims] + [meshed_tools.SHAPE]) for d in (2, 3)}
+    keys = {"shape": Key("str", REQUIRED, "; ".join([s.doc for s in shapes] + [meshed_tools.DOC]) + ".",
+                         choices=TOOL_SHAPES + (meshed_tools.SHAPE,))}
+    keys.update(_gathered([(s.name, s.params) for s in shapes] + [(meshed_tools.SHAPE, meshed_tools.KEYS)], "shape"))
     keys["path"] = Key("path", OPTIONAL, "Translation: { t = [...], x = [...], y = [...] } (and z = [...] in 3-D; "
                        "piecewise linear; a missing component stays 0); absent = fixed.", "mm")
-    return Table(f"Rigid analytic tools, one table per name, each moving along `path`. 2-D: {by_dim[2]}; "
+    return Table(f"Rigid tools, analytic or meshed, one table per name, each moving along `path`. 2-D: {by_dim[2]}; "
                  f"3-D: {by_dim[3]}.",
                  collection=True, discriminator="shape", keys=keys)
 

@@ -16,6 +16,7 @@ from fenics_plast.output import file_name_problem
 from fenics_plast.expressions import ExpressionError, check_times, parse_value
 from fenics_plast.hardening_laws import laws
 from fenics_plast.quantities.registry import column_names, kind
+from fenics_plast import meshed_tools
 from fenics_plast.tool_shapes import shapes as tool_shapes
 from fenics_plast.schema import (OPTIONAL, REQUIRED, SCHEMA, SECTIONS, US, Key, Table, VALUE_DOC, number_text,
                                   component_names, is_cell_count, vector_size)
@@ -486,6 +487,13 @@ def _geometry_checks(t: dict[str, Any], v: _Validator, geometry: str):
                    f"on the planes of a sector model")
     for n, tool in t["tools"].items():
         d = f"tools.{n}"
+        if tool.shape == meshed_tools.SHAPE:
+            if t["analysis"].type != "explicit":
+                v.fail(f"{d}.shape = 'mesh': a meshed tool is for explicit analyses (the static solver's contact "
+                       f"forms need a tool whose gap UFL can write: an analytic shape)")
+            if tool.path is not None and "z" in tool.path and not three_d:
+                v.fail(f"{d}.path.z: a 2-D tool moves in x and y only")
+            continue
         for k, key in tool_shapes()[tool.shape].params.items():
             if key.type == "vector":
                 vector(f"{d}.{k}", tool.get(k))

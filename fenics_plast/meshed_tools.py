@@ -1,0 +1,155 @@
+"""Meshed rigid tools: a physical curve (2-D) or surface (3-D) of a Gmsh file, moved rigidly along a path.
+
+A tool no analytic shape makes (a die from CAD, a square punch): ``[tools.<name>] shape = "mesh"``, with
+``file`` (a Gmsh ``.geo``, screened and meshed here, or a ``.msh``) and ``group`` (the physical curve or
+surface that is the tool's working surface; line elements in 2-D, triangles or quadrangles in 3-D, the
+quadrangles split in two). The body lies on the side the facets' normals point to: left of the curve's
+direction in 2-D, right-handed about the vertex order in 3-D, every facet oriented like its neighbours
+(:func:`fenics_plast.solvers.surface_gaps.build_surface`); ``flip = true`` takes the other side.
+
+A :class:`MeshedTool` answers what the explicit solver asks of a tool: ``gap_np(x, t)`` (the signed gap
+and normal of :func:`~fenics_plast.solvers.surface_gaps.surface_gaps`, the surface translated by the path)
+and ``translation(t)``; its contact then runs as that of an analytic tool, friction and energy included
+(:mod:`fenics_plast.solvers.explicit_contact`, a tool with a ``gap_np`` of its own). The static solver's
+contact forms need a gap written in UFL: meshed tools are for explicit analyses (validation says so).
+Units mm.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from fenics_plast.errors import SceneError
+from fenics_plast.scene_key import REQUIRED, Key
+
+#: the ``shape`` of a meshed tool
+SHAPE = "mesh"
+#: its scene keys (``tools.<name>.*``; the schema adds ``when = {shape: mesh}``)
+KEYS = {
+    "file": Key("str", REQUIRED, "Gmsh .geo or .msh file holding the tool's surface, relative to the scene "
+                "file (a .geo is screened like the body's, then meshed)."),
+    "group": Key("str", REQUIRED, "The physical curve (2-D) or physical surface (3-D) of `file` that is the "
+                 "tool's surface (line elements; triangles or quadrangles)."),
+    "flip": Key("bool", False, "The body lies on the side the surface's normals point to (left of the "
+                "curve's direction in 2-D, right-handed about the element's vertex order in 3-D, all facets "
+                "oriented like their neighbours); true: on the other side."),
+}
+DOC = "mesh: a physical curve (2-D) or surface (3-D) of a Gmsh file (explicit analyses)"
+
+#: Gmsh element types: 2-node line, 3-node triangle, 4-node quadrangle
+_LINE, _TRIANGLE, _QUADRANGLE = 1, 2, 3
+
+
+def read_surface(path, group: str, dim: int, comm, scene_dir=None):
+    """(vertices (nv, dim) [mm], facets (nf, dim)) of the physical group ``group`` of dimension dim - 1 in
+    the Gmsh file ``path`` (rank 0 reads, every rank gets them). SceneError naming the file and group for
+    a missing file, a script the screen refuses, a group that does not exist, has another dimension, is
+    empty or holds elements other than linear lines (2-D) or triangles and quadrangles (3-D)."""
+    import gmsh
+
+    from fenics_plast.geo_screen import GeoScreenError, screen
+    path = Path(path)
+    error, surface = None, None
+    if comm.rank == 0:
+        gmsh.initialize()
+        try:
+            gmsh.option.setNumber("General.Terminal", 0)
+            if not path.is_file():
+                raise SceneError(f"file {path} not found")
+            if path.suffix.lower() not in (".geo", ".msh"):
+                raise SceneError(f"file {path}: must end in .geo or .msh")
+            if path.suffix.lower() == ".geo":
+                screen(path, scene_dir)
+            gmsh.open(str(path))
+            if path.suffix.lower() == ".geo":
+                gmsh.model.geo.synchronize()
+                gmsh.model.mesh.generate(dim - 1)
+            surface = _group_facets(gmsh, path, group, dim)
+        except SceneError as e:
+            error = str(e)
+        except GeoScreenError as e:
+            error = str(e)
+        except Exception as e:  # noqa: BLE001 - gmsh raises plain Exception with its last error
+            error = f"Gmsh cannot read {path.name}: {e}"
+        finally:
+            gmsh.finalize()
+    error, surface = comm.bcast((error, surface), root=0)
+    if error is not None:
+        raise SceneError(error)
+    return surface
+
+
+def _group_facets(gmsh, path, group, dim):
+    kind = "physical curve" if dim == 2 else "physical surface"
+    names = {gmsh.model.getPhysicalName(d, t): (d, t) for d, t in gmsh.model.getPhysicalGroups()}
+    if group not in names:
+        raise SceneError(f"{path.name} has no physical group {group!r} (its groups: {', '.join(sorted(names)) or 'none'})")
+    d, tag = names[group]
+    if d != dim - 1:
+        raise SceneError(f"{path.name}: {group!r} is a physical group of dimension {d}: a {dim}-D tool needs a {kind}")
+    facets = []
+    for entity in gmsh.model.getEntitiesForPhysicalGroup(d, tag):
+        for etype, _, nodes in zip(*gmsh.model.mesh.getElements(d, entity)):
+            nodes = np.asarray(nodes, dtype=np.int64)
+            if dim == 2 and etype == _LINE:
+                facets.append(nodes.reshape(-1, 2))
+            elif dim == 3 and etype == _TRIANGLE:
+                facets.append(nodes.reshape(-1, 3))
+            elif dim == 3 and etype == _QUADRANGLE:
+                q = nodes.reshape(-1, 4)
+                facets.append(np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]]))
+            else:
+                name = gmsh.model.mesh.getElementProperties(etype)[0]
+                raise SceneError(f"{path.name}: {kind} {group!r} holds {name} elements: a tool surface takes "
+                                 + ("2-node lines" if dim == 2 else "3-node triangles and 4-node quadrangles"))
+    if not facets:
+        raise SceneError(f"{path.name}: {kind} {group!r} has no elements")
+    facets = np.concatenate(facets)
+    tags = np.unique(facets)
+    coords = np.array([gmsh.model.mesh.getNode(int(t))[0][:dim] for t in tags])
+    return coords, np.searchsorted(tags, facets)
+
+
+class MeshedTool:
+    """A rigid tool whose surface is ``surface`` (:class:`~fenics_plast.solvers.surface_gaps.FacetSurface`),
+    translating along ``path`` (as :class:`fenics_plast.tools.Tool`'s: a function of t, None = fixed)."""
+
+    def __init__(self, surface, path=None, name=SHAPE):
+        self.surface = surface
+        self.dim = surface.vertices.shape[1]
+        self.path = path
+        self.name = name
+
+    def translation(self, t, use_ufl=False):
+        """(dim,) translation [mm] at time t (numpy; a meshed tool has no UFL form)."""
+        if use_ufl:
+            raise TypeError(f"tool {self.name!r} is meshed: it has no UFL gap (explicit analyses only)")
+        if self.path is None:
+            return np.zeros(self.dim)
+        d = [float(c) for c in self.path(t, False)]
+        return np.array((d + [0.0] * self.dim)[:self.dim])
+
+    def gap_np(self, x, t):
+        """(g (n,) [mm], N (n, dim)) of the positions x (n, dim) (or (n, 3) for a 2-D tool) at time t."""
+        from fenics_plast.solvers.surface_gaps import surface_gaps
+        g, N = surface_gaps(self.surface, np.asarray(x)[:, :self.dim], self.translation(t))
+        return g, N
+
+    def gap(self, x, t):
+        raise TypeError(f"tool {self.name!r} is meshed: it has no UFL gap (explicit analyses only)")
+
+
+def meshed_tool(name, spec, dim: int, path, comm, scene_dir) -> MeshedTool:
+    """The :class:`MeshedTool` of a validated ``[tools.<name>]`` table with ``shape = "mesh"`` in ``dim``
+    dimensions (its file resolved against ``scene_dir``); SceneError (the key named) for a surface that
+    cannot be read or oriented."""
+    from fenics_plast.solvers.surface_gaps import build_surface
+    file = Path(spec.file)
+    file = file if file.is_absolute() else Path(scene_dir) / file
+    try:
+        vertices, facets = read_surface(file, spec.group, dim, comm, scene_dir)
+        surface = build_surface(vertices, facets, flip=bool(spec.flip))
+    except (SceneError, ValueError) as e:
+        raise SceneError(f"tools.{name}: {e}") from None
+    return MeshedTool(surface, path, name)

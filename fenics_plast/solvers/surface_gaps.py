@@ -1,0 +1,334 @@
+"""Signed gaps of points to a faceted surface: line segments in 2-D, triangles in 3-D, compiled.
+
+The master surface of node-to-surface contact when it is a mesh (a meshed rigid tool today; the boundary of
+a deformable body is the same data at its current positions). :func:`build_surface` takes the vertices
+(nv, dim) [mm] and the facets (nf, dim) (vertex indices, 2 per segment, 3 per triangle), orients the
+facets coherently across shared edges (vertices in 2-D) and returns a :class:`FacetSurface`: unit facet
+normals, the pseudo-normals of its edges and vertices, and a uniform grid of buckets over the facets.
+:func:`surface_gaps` gives, for points x (n, dim) and a translation of the surface d (dim,) [mm], the
+signed distance g to the nearest point q of the surface and the unit normal N pointing to the point's
+side; the body's side is where the normals point (``build_surface(..., flip=True)`` turns them).
+
+Sign (Baerentzen and Aanaes, "Signed distance computation using the angle weighted pseudonormal", 2005):
+the sign of (x - q) . n_q, n_q the normal of the feature that holds q: the facet's own normal inside a
+facet, the sum of the adjacent facets' normals on an edge (3-D), and at a vertex the facets' normals
+weighted by the facet's angle there (3-D) or summed (2-D). The sign is then right on either side of
+convex and concave edges and corners alike. N = sign (x - q) / |x - q| (the facet's normal inside a facet,
+continuous where q moves onto an edge or corner); n_q where x lies on the surface.
+
+Search: each facet is listed in every bucket its bounding box meets. A point looks in rings of buckets
+around its own (Chebyshev distance r = 0, 1, ... in bucket indices, buckets outside the grid skipped) and
+stops once the nearest facet found is no farther than r h (h the bucket size): any facet not yet seen
+lies in buckets of ring r + 1 or more, at least r h away. Beyond ``reach`` [mm] the search stops and
+reports g = reach, N = 0 (no contact). Cost per point: the facets of the few buckets around it, not all
+facets (``tests/test_surface_gaps.py`` holds it to a search over all facets).
+
+Units mm. The gaps of the analytic tool shapes are :mod:`fenics_plast.solvers.tool_gaps`.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numba
+import numpy as np
+
+from fenics_plast.solvers.tool_gaps import FLAGS
+
+_njit = numba.njit(cache=True, **FLAGS)
+
+#: buckets per facet at most (the grid's size is capped at this many times the number of facets)
+BUCKETS_PER_FACET = 4.0
+
+
+class FacetSurface(NamedTuple):
+    """A faceted surface ready for :func:`surface_gaps` (``dim`` = 2: segments, 3: triangles)."""
+    vertices: np.ndarray        # (nv, dim) [mm], reference positions
+    facets: np.ndarray          # (nf, dim) vertex indices, coherently oriented
+    normals: np.ndarray         # (nf, dim) unit facet normals (the body's side)
+    facet_edges: np.ndarray     # (nf, 3) edge index of edge k (vertices k, k+1 mod 3) of a triangle; (nf, 0) in 2-D
+    edge_normals: np.ndarray    # (ne, dim) edge pseudo-normals (3-D; (0, 2) in 2-D)
+    vertex_normals: np.ndarray  # (nv, dim) vertex pseudo-normals
+    origin: np.ndarray          # (dim,) lower corner of the bucket grid [mm]
+    h: float                    # bucket size [mm]
+    shape: np.ndarray           # (dim,) buckets per axis
+    bucket_start: np.ndarray    # (nbuckets + 1,) facets of bucket b: bucket_facets[bucket_start[b]:bucket_start[b + 1]]
+    bucket_facets: np.ndarray   # (m,) facet indices
+
+
+def _orient(facets: np.ndarray, dim: int) -> np.ndarray:
+    """The facets with their vertex order turned where needed so that neighbours agree: a shared vertex (2-D)
+    is the end of one segment and the start of the other; a shared edge (3-D) is walked in opposite senses.
+    The first facet of each connected piece keeps its order. ValueError where no orientation exists
+    (a vertex of three segments, an edge of three triangles, a Moebius-like strip)."""
+    facets = facets.copy()
+    nf = len(facets)
+    sides = [(k, (k + 1) % dim) for k in range(dim)] if dim == 3 else [(0, 1)]
+    owners: dict = {}
+    for f in range(nf):
+        keys = [int(facets[f, 0]), int(facets[f, 1])] if dim == 2 else \
+            [tuple(sorted((int(facets[f, a]), int(facets[f, b])))) for a, b in sides]
+        for key in keys:
+            owners.setdefault(key, []).append(f)
+    if any(len(v) > 2 for v in owners.values()):
+        raise ValueError("the surface branches: a " + ("vertex is shared by three segments or more" if dim == 2
+                         else "an edge is shared by three triangles or more"))
+    neighbours = [[] for _ in range(nf)]
+    for v in owners.values():
+        if len(v) == 2:
+            neighbours[v[0]].append(v[1])
+            neighbours[v[1]].append(v[0])
+
+    def agree(f, g):            # f's orientation taken as right: is g's consistent with it?
+        if dim == 2:
+            return facets[f, 1] == facets[g, 0] or facets[f, 0] == facets[g, 1]
+        ef = {(int(facets[f, a]), int(facets[f, b])) for a, b in sides}
+        eg = {(int(facets[g, a]), int(facets[g, b])) for a, b in sides}
+        return not (ef & eg)    # a shared edge walked in the same sense: disagree
+
+    done = np.zeros(nf, dtype=bool)
+    for seed in range(nf):
+        if done[seed]:
+            continue
+        done[seed] = True
+        stack = [seed]
+        while stack:
+            f = stack.pop()
+            for g in neighbours[f]:
+                if done[g]:
+                    if not agree(f, g):
+                        raise ValueError("the surface cannot be oriented (a one-sided strip)")
+                    continue
+                if not agree(f, g):
+                    facets[g] = facets[g, ::-1]
+                done[g] = True
+                stack.append(g)
+    return facets
+
+
+def build_surface(vertices, facets, flip: bool, bucket_size: float | None = None) -> FacetSurface:
+    """The :class:`FacetSurface` of ``vertices`` (nv, dim) [mm] and ``facets`` (nf, dim) (segments in 2-D,
+    triangles in 3-D), coherently oriented (:func:`_orient`); the normals turned over when ``flip``.
+    ``bucket_size`` [mm]: default the mean facet size (the grid capped at :data:`BUCKETS_PER_FACET` buckets
+    per facet). ValueError for an empty or degenerate surface or one that cannot be oriented."""
+    V = np.ascontiguousarray(vertices, dtype=float)
+    F = np.ascontiguousarray(facets, dtype=np.int64)
+    if V.ndim != 2 or V.shape[1] not in (2, 3) or F.ndim != 2 or F.shape[1] != V.shape[1] or len(F) == 0:
+        raise ValueError(f"a surface needs vertices (nv, 2 or 3) and facets (nf, dim) of as many vertices as "
+                         f"dimensions, got {V.shape} and {F.shape}")
+    dim = V.shape[1]
+    if F.min() < 0 or F.max() >= len(V):
+        raise ValueError("a facet names a vertex that does not exist")
+    F = _orient(F, dim)
+    if flip:
+        F = np.ascontiguousarray(F[:, ::-1])
+    P = V[F]                                                   # (nf, dim, dim)
+    if dim == 2:
+        t = P[:, 1] - P[:, 0]
+        n = np.stack([-t[:, 1], t[:, 0]], axis=1)              # left of the segment's direction
+    else:
+        n = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])     # right-handed about the vertex order
+    size = np.linalg.norm(n, axis=1)
+    if not np.all(size > 0):
+        raise ValueError(f"facet {int(np.argmin(size))} of the surface is degenerate (zero length or area)")
+    n = n / size[:, None]
+    vertex_normals = np.zeros_like(V)
+    if dim == 2:
+        np.add.at(vertex_normals, F[:, 0], n)
+        np.add.at(vertex_normals, F[:, 1], n)
+        facet_edges, edge_normals = np.zeros((len(F), 0), dtype=np.int64), np.zeros((0, 2))
+    else:
+        for k in range(3):                                     # angle-weighted vertex pseudo-normals
+            a, b = P[:, (k + 1) % 3] - P[:, k], P[:, (k + 2) % 3] - P[:, k]
+            cos = np.einsum("ij,ij->i", a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+            np.add.at(vertex_normals, F[:, k], np.arccos(np.clip(cos, -1.0, 1.0))[:, None] * n)
+        keys = np.sort(np.stack([F, np.roll(F, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+        unique, facet_edges = np.unique(keys, axis=0, return_inverse=True)
+        facet_edges = facet_edges.reshape(-1, 3).astype(np.int64)
+        edge_normals = np.zeros((len(unique), 3))
+        np.add.at(edge_normals, facet_edges.ravel(), np.repeat(n, 3, axis=0))
+        edge_normals /= np.linalg.norm(edge_normals, axis=1)[:, None]
+    vertex_normals /= np.maximum(np.linalg.norm(vertex_normals, axis=1), 1e-300)[:, None]
+    lo, hi = P.min(axis=1), P.max(axis=1)                       # facet bounding boxes (nf, dim)
+    origin, extent = lo.min(axis=0), hi.max(axis=0) - lo.min(axis=0)
+    h = float(bucket_size) if bucket_size else float(np.mean(np.max(hi - lo, axis=1)))
+    h = max(h, (np.prod(np.maximum(extent, 1e-12 * extent.max())) / (BUCKETS_PER_FACET * len(F))) ** (1 / dim))
+    shape = np.maximum(np.ceil(extent / h).astype(np.int64), 1)
+    first = np.clip(np.floor((lo - origin) / h).astype(np.int64), 0, shape - 1)
+    last = np.clip(np.floor((hi - origin) / h).astype(np.int64), 0, shape - 1)
+    buckets, owners = [], []
+    for f in range(len(F)):
+        ranges = [np.arange(first[f, i], last[f, i] + 1) for i in range(dim)]
+        cells = np.stack(np.meshgrid(*ranges, indexing="ij"), axis=-1).reshape(-1, dim)
+        buckets.append(np.ravel_multi_index(cells.T, shape))
+        owners.append(np.full(len(cells), f))
+    buckets, owners = np.concatenate(buckets), np.concatenate(owners)
+    order = np.argsort(buckets, kind="stable")
+    bucket_start = np.searchsorted(buckets[order], np.arange(int(np.prod(shape)) + 1)).astype(np.int64)
+    return FacetSurface(V, F, n, facet_edges, edge_normals, vertex_normals, origin, h, shape,
+                        bucket_start, owners[order].astype(np.int64))
+
+
+def surface_gaps(surface: FacetSurface, x, d=None, reach: float = math.inf):
+    """(g (n,) [mm], N (n, dim)) of the points x (n, dim) [mm] to ``surface`` translated by d (dim,) [mm]:
+    see the module docstring. Points farther than ``reach`` [mm] get g = reach and N = 0."""
+    s = surface
+    dim = s.vertices.shape[1]
+    x = np.ascontiguousarray(x, dtype=float)[:, :dim]
+    d = np.zeros(dim) if d is None else np.asarray(d, dtype=float)[:dim]
+    g, N = np.empty(len(x)), np.empty((len(x), dim))
+    _gaps(s.vertices + d, s.facets, s.normals, s.facet_edges, s.edge_normals, s.vertex_normals, s.origin + d,
+          s.h, s.shape, s.bucket_start, s.bucket_facets, x, float(reach), g, N)
+    return g, N
+
+
+# ----------------------------------------------------------------------------------------------
+# compiled: the nearest point of one facet, and the bucket search
+
+
+@_njit
+def _segment_nearest(p, V, f0, f1):
+    """(squared distance, q0, q1, feature) of point p (2,) to the segment of vertices f0, f1 of V;
+    feature 0 inside, 1 at the first vertex, 2 at the second."""
+    a0, a1 = V[f0, 0], V[f0, 1]
+    t0, t1 = V[f1, 0] - a0, V[f1, 1] - a1
+    s = ((p[0] - a0) * t0 + (p[1] - a1) * t1) / (t0 * t0 + t1 * t1)
+    feature = 0
+    if s <= 0.0:
+        s, feature = 0.0, 1
+    elif s >= 1.0:
+        s, feature = 1.0, 2
+    q0, q1 = a0 + s * t0, a1 + s * t1
+    return (p[0] - q0) ** 2 + (p[1] - q1) ** 2, q0, q1, feature
+
+
+@_njit
+def _dot3(a0, a1, a2, b0, b1, b2):
+    return a0 * b0 + a1 * b1 + a2 * b2
+
+
+@_njit
+def _triangle_nearest(p, V, fa, fb, fc):
+    """(squared distance, q0, q1, q2, feature) of point p (3,) to the triangle of vertices fa, fb, fc of V
+    (Ericson, Real-Time Collision Detection, 5.1.5); feature 0 inside, 1, 2, 3 at vertex a, b, c, 4, 5, 6
+    on edge ab, bc, ca."""
+    a0, a1, a2 = V[fa, 0], V[fa, 1], V[fa, 2]
+    ab0, ab1, ab2 = V[fb, 0] - a0, V[fb, 1] - a1, V[fb, 2] - a2
+    ac0, ac1, ac2 = V[fc, 0] - a0, V[fc, 1] - a1, V[fc, 2] - a2
+    ap0, ap1, ap2 = p[0] - a0, p[1] - a1, p[2] - a2
+    d1, d2 = _dot3(ab0, ab1, ab2, ap0, ap1, ap2), _dot3(ac0, ac1, ac2, ap0, ap1, ap2)
+    # q = a + v ab + w ac
+    if d1 <= 0.0 and d2 <= 0.0:
+        v, w, f = 0.0, 0.0, 1
+    else:
+        bp0, bp1, bp2 = ap0 - ab0, ap1 - ab1, ap2 - ab2
+        d3, d4 = _dot3(ab0, ab1, ab2, bp0, bp1, bp2), _dot3(ac0, ac1, ac2, bp0, bp1, bp2)
+        cp0, cp1, cp2 = ap0 - ac0, ap1 - ac1, ap2 - ac2
+        d5, d6 = _dot3(ab0, ab1, ab2, cp0, cp1, cp2), _dot3(ac0, ac1, ac2, cp0, cp1, cp2)
+        vc, vb, va = d1 * d4 - d3 * d2, d5 * d2 - d1 * d6, d3 * d6 - d5 * d4
+        if d3 >= 0.0 and d4 <= d3:
+            v, w, f = 1.0, 0.0, 2
+        elif d6 >= 0.0 and d5 <= d6:
+            v, w, f = 0.0, 1.0, 3
+        elif vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+            v, w, f = d1 / (d1 - d3), 0.0, 4
+        elif vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+            v, w, f = 0.0, d2 / (d2 - d6), 6
+        elif va <= 0.0 and d4 - d3 >= 0.0 and d5 - d6 >= 0.0:
+            w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+            v, f = 1.0 - w, 5
+        else:
+            den = 1.0 / (va + vb + vc)
+            v, w, f = vb * den, vc * den, 0
+    q0, q1, q2 = a0 + v * ab0 + w * ac0, a1 + v * ab1 + w * ac1, a2 + v * ab2 + w * ac2
+    return (p[0] - q0) ** 2 + (p[1] - q1) ** 2 + (p[2] - q2) ** 2, q0, q1, q2, f
+
+
+@_njit
+def _ring_cells(center, r, shape, out):
+    """The buckets (flat indices) at Chebyshev distance r from the cell ``center`` (integer, possibly
+    outside the grid) that lie in the grid, written to out; returns how many."""
+    dim = len(shape)
+    count = 0
+    lo0, hi0 = center[0] - r, center[0] + r
+    lo1, hi1 = center[1] - r, center[1] + r
+    lo2, hi2 = (center[2] - r, center[2] + r) if dim == 3 else (0, 0)
+    for i in range(max(lo0, 0), min(hi0, shape[0] - 1) + 1):
+        for j in range(max(lo1, 0), min(hi1, shape[1] - 1) + 1):
+            if dim == 2:
+                if i == lo0 or i == hi0 or j == lo1 or j == hi1:
+                    out[count] = i * shape[1] + j
+                    count += 1
+                continue
+            if i == lo0 or i == hi0 or j == lo1 or j == hi1:        # a face of the ring's cube: its whole row
+                for k in range(max(lo2, 0), min(hi2, shape[2] - 1) + 1):
+                    out[count] = (i * shape[1] + j) * shape[2] + k
+                    count += 1
+            else:                                                   # inside: the row's two ends
+                for k in (lo2, hi2):
+                    if 0 <= k < shape[2]:
+                        out[count] = (i * shape[1] + j) * shape[2] + k
+                        count += 1
+    return count
+
+
+@_njit
+def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, origin, h, shape, bucket_start, bucket_facets,
+          x, reach, g, N):
+    """g (n,), N (n, dim) of the points x (n, dim) to the surface of vertices V (already translated); see
+    :func:`surface_gaps`."""
+    dim = V.shape[1]
+    seen = np.full(len(F), -1, dtype=np.int64)
+    side = 2 * int(shape.max()) + 3
+    cells = np.empty(2 * dim * side ** (dim - 1), dtype=np.int64)
+    center = np.empty(dim, dtype=np.int64)
+    for i in range(len(x)):
+        p = x[i]
+        r0 = 0
+        for k in range(dim):
+            center[k] = int(math.floor((p[k] - origin[k]) / h))
+            r0 = max(r0, -center[k], center[k] - (shape[k] - 1))
+        best, facet, feature = math.inf, -1, 0
+        q0 = q1 = q2 = 0.0
+        r = r0
+        while r <= r0 + shape.max():
+            if r > 0 and (r - 1) * h > reach:
+                break
+            for c in range(_ring_cells(center, r, shape, cells)):
+                b = cells[c]
+                for m in range(bucket_start[b], bucket_start[b + 1]):
+                    f = bucket_facets[m]
+                    if seen[f] == i:
+                        continue
+                    seen[f] = i
+                    if dim == 2:
+                        dd, c0, c1, ff = _segment_nearest(p, V, F[f, 0], F[f, 1])
+                        c2 = 0.0
+                    else:
+                        dd, c0, c1, c2, ff = _triangle_nearest(p, V, F[f, 0], F[f, 1], F[f, 2])
+                    if dd < best:
+                        best, facet, feature, q0, q1, q2 = dd, f, ff, c0, c1, c2
+            if facet >= 0 and math.sqrt(best) <= r * h:
+                break
+            r += 1
+        dist = math.sqrt(best)
+        if facet < 0 or dist > reach:
+            g[i] = reach
+            N[i, :] = 0.0
+            continue
+        if feature == 0:
+            normal = n[facet]
+        elif feature <= dim:
+            normal = vertex_normals[F[facet, feature - 1]]
+        else:
+            normal = edge_normals[facet_edges[facet, feature - 4]]
+        r0_, r1_, r2_ = p[0] - q0, p[1] - q1, (p[2] - q2 if dim == 3 else 0.0)
+        along = r0_ * normal[0] + r1_ * normal[1] + (r2_ * normal[2] if dim == 3 else 0.0)
+        sign = 1.0 if along >= 0.0 else -1.0
+        g[i] = sign * dist
+        if dist > 1e-12 * (1.0 + abs(q0) + abs(q1) + abs(q2)):
+            N[i, 0], N[i, 1] = sign * r0_ / dist, sign * r1_ / dist
+            if dim == 3:
+                N[i, 2] = sign * r2_ / dist
+        else:
+            N[i, :] = normal
