@@ -150,7 +150,7 @@ class ContactPair:
         self.omega = self._nodal_weight(facet_tags, tag, c.weight)
         lam, lam_c = s.load, c.lam_c
         x = c.X + s.u
-        g, N = tool.gap(x, lam)
+        g, N = tool.gap(x, lam) if getattr(tool, "has_ufl_gap", True) else self._nodal_gap(x)
         self.g, self.N = g, N
         self.p = ufl.conditional(ufl.lt(g, 0.0), -self.penalty_c * g, 0.0)
         w = self.omega
@@ -312,6 +312,32 @@ class ContactPair:
         g, _ = self.tool.gap_np(X + s.w.x.array[idx], s.lam)
         return g
 
+    def _nodal_gap(self, x):
+        """(g, N) in UFL for a tool whose gap UFL cannot write (a meshed tool): its ``gap_np`` at the pair's
+        nodes, computed again whenever the solver's state changes (``solver.state_hooks``) and linearised
+        about that state, g = g_k + N_k . (x - x_k), N = N_k (CG1 functions: the nodal rule evaluates
+        them at the nodes, where g = g_k at the state itself; the Jacobian eps N_k N_k^T is exact while
+        a node's nearest point lies inside a flat facet)."""
+        s = self.contact.solver
+        Vc, _ = s.displacement_space()
+        self._gap_k, self._normal_k, self._position_k = (fem.Function(Vc) for _ in range(3))
+        s.state_hooks.append(self._update_nodal_gap)
+        self._update_nodal_gap()
+        return self._gap_k[0] + ufl.dot(self._normal_k, x - self._position_k), self._normal_k
+
+    def _update_nodal_gap(self):
+        """The nodal gaps, normals and positions of :meth:`_nodal_gap` at the solver's current state."""
+        s = self.contact.solver
+        X, idx = self._owned_nodes()
+        x = X + s.w.x.array[idx]
+        g, N = self.tool.gap_np(x, s.lam)
+        blocks = self._node_blocks
+        self._gap_k.x.array.reshape(-1, self.gdim)[blocks, 0] = g
+        self._normal_k.x.array.reshape(-1, self.gdim)[blocks] = N
+        self._position_k.x.array.reshape(-1, self.gdim)[blocks] = x
+        for f in (self._gap_k, self._normal_k, self._position_k):
+            f.x.scatter_forward()
+
     def _owned_nodes(self):
         """(reference positions (n, gdim) [mm], their displacement entries in the solver's w (n, gdim)) of
         the owned nodes of the pair's facets; built on first use."""
@@ -323,6 +349,7 @@ class ContactPair:
             blocks = blocks[blocks < Vc.dofmap.index_map.size_local]
             X = Vc.tabulate_dof_coordinates()[blocks, :self.gdim]
             self._nodes = (X, np.asarray(vmap).reshape(-1, self.gdim)[blocks])
+            self._node_blocks = blocks
         return self._nodes
 
     def keep_gaps(self, lam) -> None:

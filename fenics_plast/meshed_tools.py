@@ -7,12 +7,13 @@ quadrangles split in two). The body lies on the side the facets' normals point t
 direction in 2-D, right-handed about the vertex order in 3-D, every facet oriented like its neighbours
 (:func:`fenics_plast.solvers.surface_gaps.build_surface`); ``flip = true`` takes the other side.
 
-A :class:`MeshedTool` answers what the explicit solver asks of a tool: ``gap_np(x, t)`` (the signed gap
-and normal of :func:`~fenics_plast.solvers.surface_gaps.surface_gaps`, the surface translated by the path)
-and ``translation(t)``; its contact then runs as that of an analytic tool, friction and energy included
-(:mod:`fenics_plast.solvers.explicit_contact`, a tool with a ``gap_np`` of its own). The static solver's
-contact forms need a gap written in UFL: meshed tools are for explicit analyses (validation says so).
-Units mm.
+A :class:`MeshedTool` answers what the solvers ask of a tool: ``gap_np(x, t)`` (the signed gap and normal
+of :func:`~fenics_plast.solvers.surface_gaps.surface_gaps`, the surface translated by the path) and
+``translation(t)``. The explicit contact takes its gaps as given (a tool with a ``gap_np`` of its own:
+:mod:`fenics_plast.solvers.explicit_contact`); the static contact forms, which evaluate gaps at the nodes,
+take them as nodal functions computed at every Newton state and linearised about it
+(:meth:`fenics_plast.contact.ContactPair._nodal_gap`, ``has_ufl_gap = False``). Friction and energy as
+for an analytic tool. Units mm.
 """
 from __future__ import annotations
 
@@ -35,7 +36,7 @@ KEYS = {
                 "curve's direction in 2-D, right-handed about the element's vertex order in 3-D, all facets "
                 "oriented like their neighbours); true: on the other side."),
 }
-DOC = "mesh: a physical curve (2-D) or surface (3-D) of a Gmsh file (explicit analyses)"
+DOC = "mesh: a physical curve (2-D) or surface (3-D) of a Gmsh file"
 
 #: Gmsh element types: 2-node line, 3-node triangle, 4-node quadrangle
 _LINE, _TRIANGLE, _QUADRANGLE = 1, 2, 3
@@ -121,23 +122,22 @@ class MeshedTool:
         self.path = path
         self.name = name
 
-    def translation(self, t, use_ufl=False):
-        """(dim,) translation [mm] at time t (numpy; a meshed tool has no UFL form)."""
+    #: its gap is computed at the nodes (gap_np), not written in UFL (fenics_plast.contact.ContactPair)
+    has_ufl_gap = False
+
+    def translation(self, t, use_ufl=True):
+        """Translation [mm] at t: a tuple of ``dim`` UFL scalars of the UFL t, or a numpy (dim,) array."""
+        import ufl
+        d = (0.0,) * self.dim if self.path is None else tuple(self.path(t, use_ufl))
+        d = (d + (0.0,) * self.dim)[:self.dim]
         if use_ufl:
-            raise TypeError(f"tool {self.name!r} is meshed: it has no UFL gap (explicit analyses only)")
-        if self.path is None:
-            return np.zeros(self.dim)
-        d = [float(c) for c in self.path(t, False)]
-        return np.array((d + [0.0] * self.dim)[:self.dim])
+            return tuple(ufl.as_ufl(c) for c in d)
+        return np.array([float(c) for c in d])
 
     def gap_np(self, x, t):
         """(g (n,) [mm], N (n, dim)) of the positions x (n, dim) (or (n, 3) for a 2-D tool) at time t."""
         from fenics_plast.solvers.surface_gaps import surface_gaps
-        g, N = surface_gaps(self.surface, np.asarray(x)[:, :self.dim], self.translation(t))
-        return g, N
-
-    def gap(self, x, t):
-        raise TypeError(f"tool {self.name!r} is meshed: it has no UFL gap (explicit analyses only)")
+        return surface_gaps(self.surface, np.asarray(x)[:, :self.dim], self.translation(t, use_ufl=False))
 
 
 def meshed_tool(name, spec, dim: int, path, comm, scene_dir) -> MeshedTool:

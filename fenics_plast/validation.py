@@ -488,9 +488,6 @@ def _geometry_checks(t: dict[str, Any], v: _Validator, geometry: str):
     for n, tool in t["tools"].items():
         d = f"tools.{n}"
         if tool.shape == meshed_tools.SHAPE:
-            if t["analysis"].type != "explicit":
-                v.fail(f"{d}.shape = 'mesh': a meshed tool is for explicit analyses (the static solver's contact "
-                       f"forms need a tool whose gap UFL can write: an analytic shape)")
             if tool.path is not None and "z" in tool.path and not three_d:
                 v.fail(f"{d}.path.z: a 2-D tool moves in x and y only")
             continue

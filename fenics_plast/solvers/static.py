@@ -120,6 +120,9 @@ class StaticSolver:
         # corrections of the extrapolated predictor, predict(lam), each changing owned entries of w (the
         # contact pairs keep their committed gaps: PenaltyContact.attach); applied with predictor "contact"
         self.predictors = []
+        # called with no argument whenever the state w is set (Newton iterates, line-search trials): what
+        # depends on it outside UFL (a meshed tool's nodal gaps: ContactPair._nodal_gap)
+        self.state_hooks = []
         self._bcs = []          # (DirichletBC, g Function, g0 array): g = lam * g0
         self._prescribed = []   # (DirichletBC, g Function, X (3, n), value(X, t)): g = value(X, lam)
         self.options = dict(rtol=rtol, atol=atol, max_iterations=max_iterations,
@@ -383,6 +386,8 @@ class StaticSolver:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         x.copy(dc.petsc_vec(self.w))
         self.w.x.scatter_forward()
+        for hook in self.state_hooks:
+            hook()
 
     def _residual(self, snes, x, b):
         t0 = time.perf_counter()
