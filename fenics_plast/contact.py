@@ -4,7 +4,9 @@ Tools (:mod:`fenics_plast.tools`: :class:`~fenics_plast.tools.Plane`, ``Circle``
 rigid bodies that only translate, along a path of the solver's load factor (the ``fem.Constant``
 ``solver.load``; :func:`fenics_plast.tools.piecewise_path` makes a piecewise-linear one).  For every
 tool the gap ``g`` and the outward normal ``N`` (pointing from the tool into the body) are exact UFL
-expressions of the current position ``x = X + u`` of the body's candidate facets.
+expressions of the current position ``x = X + u`` of the body's candidate facets; a meshed tool
+(:mod:`fenics_plast.meshed_tools`, no UFL gap) gives them at the nodes, linearised about each Newton
+state (:meth:`ContactPair._nodal_gap`).
 
 Each :class:`ContactPair` (one tool against one facet group, :meth:`PenaltyContact.add_pair`) has
 its own normal penalty ``eps``, tangential penalty ``eps_T``, friction coefficient ``mu`` and law;

@@ -1,4 +1,4 @@
-"""Signed gaps to faceted surfaces (fenics_plast.solvers.surface_gaps): the bucket search against a search
+"""Signed gaps to faceted surfaces (fenics_plast.solvers.surface_gaps): the hierarchy search against a search
 over all facets, the sign from pseudo-normals on either side of convex and concave features, and
 triangulated spheres and polygonal circles against their analytic gaps."""
 import math
@@ -49,7 +49,7 @@ def brute_force(V, F, x):
 
 def test_sphere_gaps_match_the_search_over_all_facets_and_the_sphere():
     """Points inside, outside, near and far from a triangulated sphere (R = 10 mm, 1280 triangles): the
-    bucket search finds the nearest facet (distance equal to the search over all facets to 1e-12), the sign
+    hierarchy search finds the nearest facet (distance equal to the search over all facets to 1e-12), the sign
     is the side of the sphere, and g is the sphere's own gap |x| - R to within the facets' sagitta."""
     R = 10.0
     V, F = icosphere(R, 3)

@@ -4,10 +4,10 @@ The master surface of node-to-surface contact when it is a mesh (a meshed rigid 
 a deformable body is the same data at its current positions). :func:`build_surface` takes the vertices
 (nv, dim) [mm] and the facets (nf, dim) (vertex indices, 2 per segment, 3 per triangle), orients the
 facets coherently across shared edges (vertices in 2-D) and returns a :class:`FacetSurface`: unit facet
-normals, the pseudo-normals of its edges and vertices, and a uniform grid of buckets over the facets.
+normals, the pseudo-normals of its edges and vertices, and a bounding-volume hierarchy over the facets.
 :func:`surface_gaps` gives, for points x (n, dim) and a translation of the surface d (dim,) [mm], the
 signed distance g to the nearest point q of the surface and the unit normal N pointing to the point's
-side; the body's side is where the normals point (``build_surface(..., flip=True)`` turns them).
+side; the body's side is where the normals point (``flip=True`` turns them).
 
 Sign (Baerentzen and Aanaes, "Signed distance computation using the angle weighted pseudonormal", 2005):
 the sign of (x - q) . n_q, n_q the normal of the feature that holds q: the facet's own normal inside a
@@ -16,12 +16,12 @@ weighted by the facet's angle there (3-D) or summed (2-D). The sign is then righ
 convex and concave edges and corners alike. N = sign (x - q) / |x - q| (the facet's normal inside a facet,
 continuous where q moves onto an edge or corner); n_q where x lies on the surface.
 
-Search: each facet is listed in every bucket its bounding box meets. A point looks in rings of buckets
-around its own (Chebyshev distance r = 0, 1, ... in bucket indices, buckets outside the grid skipped) and
-stops once the nearest facet found is no farther than r h (h the bucket size): any facet not yet seen
-lies in buckets of ring r + 1 or more, at least r h away. Beyond ``reach`` [mm] the search stops and
-reports g = reach, N = 0 (no contact). Cost per point: the facets of the few buckets around it, not all
-facets (``tests/test_surface_gaps.py`` holds it to a search over all facets).
+Search: a bounding-volume hierarchy (axis-aligned boxes; each node split at the median of its facets'
+centres along its longest side, leaves of at most :data:`LEAF_SIZE` facets). A point walks it depth
+first, the nearer child first, and skips a box farther than the nearest facet found so far: about log2(nf)
+boxes and a few leaves per point, near the surface or far from it. Beyond ``reach`` [mm] the search stops
+and reports g = reach, N = 0 (no contact). ``tests/test_surface_gaps.py`` holds it to a search over all
+facets.
 
 Units mm. The gaps of the analytic tool shapes are :mod:`fenics_plast.solvers.tool_gaps`.
 """
@@ -37,8 +37,8 @@ from fenics_plast.solvers.tool_gaps import FLAGS
 
 _njit = numba.njit(cache=True, **FLAGS)
 
-#: buckets per facet at most (the grid's size is capped at this many times the number of facets)
-BUCKETS_PER_FACET = 4.0
+#: most facets in a leaf of the bounding-volume hierarchy
+LEAF_SIZE = 4
 
 
 class FacetSurface(NamedTuple):
@@ -49,11 +49,11 @@ class FacetSurface(NamedTuple):
     facet_edges: np.ndarray     # (nf, 3) edge index of edge k (vertices k, k+1 mod 3) of a triangle; (nf, 0) in 2-D
     edge_normals: np.ndarray    # (ne, dim) edge pseudo-normals (3-D; (0, 2) in 2-D)
     vertex_normals: np.ndarray  # (nv, dim) vertex pseudo-normals
-    origin: np.ndarray          # (dim,) lower corner of the bucket grid [mm]
-    h: float                    # bucket size [mm]
-    shape: np.ndarray           # (dim,) buckets per axis
-    bucket_start: np.ndarray    # (nbuckets + 1,) facets of bucket b: bucket_facets[bucket_start[b]:bucket_start[b + 1]]
-    bucket_facets: np.ndarray   # (m,) facet indices
+    box_lo: np.ndarray          # (nb, dim) lower corners of the hierarchy's boxes [mm] (box 0: the root)
+    box_hi: np.ndarray          # (nb, dim) upper corners [mm]
+    children: np.ndarray        # (nb, 2) the two child boxes of an inner box; -1 for a leaf
+    leaf: np.ndarray            # (nb, 2) a leaf's facets: order[leaf[b, 0]:leaf[b, 1]]
+    order: np.ndarray           # (nf,) facet indices, each leaf's contiguous
 
 
 def _orient(facets: np.ndarray, dim: int) -> np.ndarray:
@@ -106,11 +106,10 @@ def _orient(facets: np.ndarray, dim: int) -> np.ndarray:
     return facets
 
 
-def build_surface(vertices, facets, flip: bool, bucket_size: float | None = None) -> FacetSurface:
+def build_surface(vertices, facets, flip: bool) -> FacetSurface:
     """The :class:`FacetSurface` of ``vertices`` (nv, dim) [mm] and ``facets`` (nf, dim) (segments in 2-D,
     triangles in 3-D), coherently oriented (:func:`_orient`); the normals turned over when ``flip``.
-    ``bucket_size`` [mm]: default the mean facet size (the grid capped at :data:`BUCKETS_PER_FACET` buckets
-    per facet). ValueError for an empty or degenerate surface or one that cannot be oriented."""
+    ValueError for an empty or degenerate surface or one that cannot be oriented."""
     V = np.ascontiguousarray(vertices, dtype=float)
     F = np.ascontiguousarray(facets, dtype=np.int64)
     if V.ndim != 2 or V.shape[1] not in (2, 3) or F.ndim != 2 or F.shape[1] != V.shape[1] or len(F) == 0:
@@ -150,23 +149,35 @@ def build_surface(vertices, facets, flip: bool, bucket_size: float | None = None
         edge_normals /= np.linalg.norm(edge_normals, axis=1)[:, None]
     vertex_normals /= np.maximum(np.linalg.norm(vertex_normals, axis=1), 1e-300)[:, None]
     lo, hi = P.min(axis=1), P.max(axis=1)                       # facet bounding boxes (nf, dim)
-    origin, extent = lo.min(axis=0), hi.max(axis=0) - lo.min(axis=0)
-    h = float(bucket_size) if bucket_size else float(np.mean(np.max(hi - lo, axis=1)))
-    h = max(h, (np.prod(np.maximum(extent, 1e-12 * extent.max())) / (BUCKETS_PER_FACET * len(F))) ** (1 / dim))
-    shape = np.maximum(np.ceil(extent / h).astype(np.int64), 1)
-    first = np.clip(np.floor((lo - origin) / h).astype(np.int64), 0, shape - 1)
-    last = np.clip(np.floor((hi - origin) / h).astype(np.int64), 0, shape - 1)
-    buckets, owners = [], []
-    for f in range(len(F)):
-        ranges = [np.arange(first[f, i], last[f, i] + 1) for i in range(dim)]
-        cells = np.stack(np.meshgrid(*ranges, indexing="ij"), axis=-1).reshape(-1, dim)
-        buckets.append(np.ravel_multi_index(cells.T, shape))
-        owners.append(np.full(len(cells), f))
-    buckets, owners = np.concatenate(buckets), np.concatenate(owners)
-    order = np.argsort(buckets, kind="stable")
-    bucket_start = np.searchsorted(buckets[order], np.arange(int(np.prod(shape)) + 1)).astype(np.int64)
-    return FacetSurface(V, F, n, facet_edges, edge_normals, vertex_normals, origin, h, shape,
-                        bucket_start, owners[order].astype(np.int64))
+    return FacetSurface(V, F, n, facet_edges, edge_normals, vertex_normals, *_hierarchy(lo, hi))
+
+
+def _hierarchy(lo, hi):
+    """(box_lo, box_hi, children, leaf, order) of the bounding-volume hierarchy over the facet boxes
+    [lo, hi] (nf, dim): see the module docstring."""
+    centre = 0.5 * (lo + hi)
+    order = np.arange(len(lo))
+    box_lo, box_hi, children, leaf = [], [], [], []
+    stack = [(0, len(lo), -1, 0)]               # (start, end in order, parent box, which child)
+    while stack:
+        start, end, parent, side = stack.pop()
+        b = len(box_lo)
+        idx = order[start:end]
+        box_lo.append(lo[idx].min(axis=0))
+        box_hi.append(hi[idx].max(axis=0))
+        children.append([-1, -1])
+        leaf.append([start, end])
+        if parent >= 0:
+            children[parent][side] = b
+        if end - start > LEAF_SIZE:
+            c = centre[idx]
+            axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
+            mid = (end - start) // 2
+            order[start:end] = idx[np.argpartition(c[:, axis], mid)]
+            stack.append((start + mid, end, b, 1))
+            stack.append((start, start + mid, b, 0))
+    return (np.array(box_lo), np.array(box_hi), np.array(children, dtype=np.int64), np.array(leaf, dtype=np.int64),
+            order.astype(np.int64))
 
 
 def surface_gaps(surface: FacetSurface, x, d=None, reach: float = math.inf):
@@ -177,13 +188,13 @@ def surface_gaps(surface: FacetSurface, x, d=None, reach: float = math.inf):
     x = np.ascontiguousarray(x, dtype=float)[:, :dim]
     d = np.zeros(dim) if d is None else np.asarray(d, dtype=float)[:dim]
     g, N = np.empty(len(x)), np.empty((len(x), dim))
-    _gaps(s.vertices + d, s.facets, s.normals, s.facet_edges, s.edge_normals, s.vertex_normals, s.origin + d,
-          s.h, s.shape, s.bucket_start, s.bucket_facets, x, float(reach), g, N)
+    _gaps(s.vertices + d, s.facets, s.normals, s.facet_edges, s.edge_normals, s.vertex_normals, s.box_lo + d,
+          s.box_hi + d, s.children, s.leaf, s.order, x, float(reach), g, N)
     return g, N
 
 
 # ----------------------------------------------------------------------------------------------
-# compiled: the nearest point of one facet, and the bucket search
+# compiled: the nearest point of one facet, and the search down the hierarchy
 
 
 @_njit
@@ -245,72 +256,52 @@ def _triangle_nearest(p, V, fa, fb, fc):
 
 
 @_njit
-def _ring_cells(center, r, shape, out):
-    """The buckets (flat indices) at Chebyshev distance r from the cell ``center`` (integer, possibly
-    outside the grid) that lie in the grid, written to out; returns how many."""
-    dim = len(shape)
-    count = 0
-    lo0, hi0 = center[0] - r, center[0] + r
-    lo1, hi1 = center[1] - r, center[1] + r
-    lo2, hi2 = (center[2] - r, center[2] + r) if dim == 3 else (0, 0)
-    for i in range(max(lo0, 0), min(hi0, shape[0] - 1) + 1):
-        for j in range(max(lo1, 0), min(hi1, shape[1] - 1) + 1):
-            if dim == 2:
-                if i == lo0 or i == hi0 or j == lo1 or j == hi1:
-                    out[count] = i * shape[1] + j
-                    count += 1
-                continue
-            if i == lo0 or i == hi0 or j == lo1 or j == hi1:        # a face of the ring's cube: its whole row
-                for k in range(max(lo2, 0), min(hi2, shape[2] - 1) + 1):
-                    out[count] = (i * shape[1] + j) * shape[2] + k
-                    count += 1
-            else:                                                   # inside: the row's two ends
-                for k in (lo2, hi2):
-                    if 0 <= k < shape[2]:
-                        out[count] = (i * shape[1] + j) * shape[2] + k
-                        count += 1
-    return count
+def _box_distance2(p, lo, hi):
+    """Squared distance from p to the box [lo, hi]."""
+    d2 = 0.0
+    for k in range(len(p)):
+        if p[k] < lo[k]:
+            d2 += (lo[k] - p[k]) ** 2
+        elif p[k] > hi[k]:
+            d2 += (p[k] - hi[k]) ** 2
+    return d2
 
 
 @_njit
-def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, origin, h, shape, bucket_start, bucket_facets,
-          x, reach, g, N):
-    """g (n,), N (n, dim) of the points x (n, dim) to the surface of vertices V (already translated); see
-    :func:`surface_gaps`."""
+def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi, children, leaf, order, x, reach, g, N):
+    """g (n,), N (n, dim) of the points x (n, dim) to the surface of vertices V and boxes (already
+    translated); see :func:`surface_gaps`."""
     dim = V.shape[1]
-    seen = np.full(len(F), -1, dtype=np.int64)
-    side = 2 * int(shape.max()) + 3
-    cells = np.empty(2 * dim * side ** (dim - 1), dtype=np.int64)
-    center = np.empty(dim, dtype=np.int64)
+    stack = np.empty(2 * len(box_lo) + 2, dtype=np.int64)
+    reach2 = reach * reach if reach < math.inf else math.inf
     for i in range(len(x)):
         p = x[i]
-        r0 = 0
-        for k in range(dim):
-            center[k] = int(math.floor((p[k] - origin[k]) / h))
-            r0 = max(r0, -center[k], center[k] - (shape[k] - 1))
-        best, facet, feature = math.inf, -1, 0
+        best, facet, feature = reach2, -1, 0
         q0 = q1 = q2 = 0.0
-        r = r0
-        while r <= r0 + shape.max():
-            if r > 0 and (r - 1) * h > reach:
-                break
-            for c in range(_ring_cells(center, r, shape, cells)):
-                b = cells[c]
-                for m in range(bucket_start[b], bucket_start[b + 1]):
-                    f = bucket_facets[m]
-                    if seen[f] == i:
-                        continue
-                    seen[f] = i
+        top = 0
+        stack[0] = 0
+        while top >= 0:
+            b = stack[top]
+            top -= 1
+            if _box_distance2(p, box_lo[b], box_hi[b]) >= best:
+                continue
+            c0, c1 = children[b, 0], children[b, 1]
+            if c0 < 0:                                  # a leaf: its facets
+                for m in range(leaf[b, 0], leaf[b, 1]):
+                    f = order[m]
                     if dim == 2:
-                        dd, c0, c1, ff = _segment_nearest(p, V, F[f, 0], F[f, 1])
-                        c2 = 0.0
+                        dd, a0, a1, ff = _segment_nearest(p, V, F[f, 0], F[f, 1])
+                        a2 = 0.0
                     else:
-                        dd, c0, c1, c2, ff = _triangle_nearest(p, V, F[f, 0], F[f, 1], F[f, 2])
+                        dd, a0, a1, a2, ff = _triangle_nearest(p, V, F[f, 0], F[f, 1], F[f, 2])
                     if dd < best:
-                        best, facet, feature, q0, q1, q2 = dd, f, ff, c0, c1, c2
-            if facet >= 0 and math.sqrt(best) <= r * h:
-                break
-            r += 1
+                        best, facet, feature, q0, q1, q2 = dd, f, ff, a0, a1, a2
+                continue
+            d0, d1 = _box_distance2(p, box_lo[c0], box_hi[c0]), _box_distance2(p, box_lo[c1], box_hi[c1])
+            near, far = (c0, c1) if d0 <= d1 else (c1, c0)
+            stack[top + 1] = far                         # the nearer child is walked first
+            stack[top + 2] = near
+            top += 2
         dist = math.sqrt(best)
         if facet < 0 or dist > reach:
             g[i] = reach
