@@ -67,9 +67,7 @@ def read_surface(path, group: str, dim: int, comm, scene_dir=None):
                 gmsh.model.geo.synchronize()
                 gmsh.model.mesh.generate(dim - 1)
             surface = _group_facets(gmsh, path, group, dim)
-        except SceneError as e:
-            error = str(e)
-        except GeoScreenError as e:
+        except (SceneError, GeoScreenError) as e:
             error = str(e)
         except Exception as e:  # noqa: BLE001 - gmsh raises plain Exception with its last error
             error = f"Gmsh cannot read {path.name}: {e}"
@@ -85,10 +83,12 @@ def _group_facets(gmsh, path, group, dim):
     kind = "physical curve" if dim == 2 else "physical surface"
     names = {gmsh.model.getPhysicalName(d, t): (d, t) for d, t in gmsh.model.getPhysicalGroups()}
     if group not in names:
-        raise SceneError(f"{path.name} has no physical group {group!r} (its groups: {', '.join(sorted(names)) or 'none'})")
+        raise SceneError(f"{path.name} has no physical group {group!r} (its groups: "
+                         f"{', '.join(sorted(names)) or 'none'})")
     d, tag = names[group]
     if d != dim - 1:
-        raise SceneError(f"{path.name}: {group!r} is a physical group of dimension {d}: a {dim}-D tool needs a {kind}")
+        raise SceneError(f"{path.name}: {group!r} is a physical group of dimension {d}: a {dim}-D tool needs "
+                         f"a {kind}")
     facets = []
     for entity in gmsh.model.getEntitiesForPhysicalGroup(d, tag):
         for etype, _, nodes in zip(*gmsh.model.mesh.getElements(d, entity)):
@@ -107,9 +107,12 @@ def _group_facets(gmsh, path, group, dim):
     if not facets:
         raise SceneError(f"{path.name}: {kind} {group!r} has no elements")
     facets = np.concatenate(facets)
-    tags = np.unique(facets)
-    coords = np.array([gmsh.model.mesh.getNode(int(t))[0][:dim] for t in tags])
-    return coords, np.searchsorted(tags, facets)
+    used = np.unique(facets)
+    tags, coords, _ = gmsh.model.mesh.getNodes()
+    tags, coords = np.asarray(tags, dtype=np.int64), np.asarray(coords).reshape(-1, 3)
+    by_tag = np.argsort(tags)
+    rows = by_tag[np.searchsorted(tags, used, sorter=by_tag)]
+    return coords[rows, :dim], np.searchsorted(used, facets)
 
 
 class MeshedTool:

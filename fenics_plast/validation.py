@@ -11,12 +11,12 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from fenics_plast import meshed_tools
 from fenics_plast.errors import SceneError
 from fenics_plast.output import file_name_problem
 from fenics_plast.expressions import ExpressionError, check_times, parse_value
 from fenics_plast.hardening_laws import laws
 from fenics_plast.quantities.registry import column_names, kind
-from fenics_plast import meshed_tools
 from fenics_plast.tool_shapes import shapes as tool_shapes
 from fenics_plast.schema import (OPTIONAL, REQUIRED, SCHEMA, SECTIONS, US, Key, Table, VALUE_DOC, number_text,
                                   component_names, is_cell_count, vector_size)
@@ -487,16 +487,14 @@ def _geometry_checks(t: dict[str, Any], v: _Validator, geometry: str):
                    f"on the planes of a sector model")
     for n, tool in t["tools"].items():
         d = f"tools.{n}"
+        if tool.path is not None and "z" in tool.path and not three_d:
+            v.fail(f"{d}.path.z: a 2-D tool moves in x and y only")
         if tool.shape == meshed_tools.SHAPE:
-            if tool.path is not None and "z" in tool.path and not three_d:
-                v.fail(f"{d}.path.z: a 2-D tool moves in x and y only")
-            continue
+            continue                # its file and group are read, and checked, at the set-up (meshed_tools)
         for k, key in tool_shapes()[tool.shape].params.items():
             if key.type == "vector":
                 vector(f"{d}.{k}", tool.get(k))
         _tool_shape_checks(d, tool, dim, where, v)
-        if tool.path is not None and "z" in tool.path and not three_d:
-            v.fail(f"{d}.path.z: a 2-D tool moves in x and y only")
     names = component_names(geometry)
     for n, o in t["outputs"].items():
         d = f"outputs.{n}"

@@ -36,7 +36,8 @@ def icosphere(radius: float, subdivisions: int):
 
 
 def brute_force(V, F, x):
-    """Unsigned distances of x (n, dim) to every facet, the smallest: dense sampling-free exact formulas (the compiled ones)."""
+    """The unsigned distance of each point x (n, dim) to the surface, the smallest over every facet (the
+    compiled nearest-point formulas, without the hierarchy)."""
     from fenics_plast.solvers.surface_gaps import _segment_nearest, _triangle_nearest
     out = np.empty(len(x))
     for i, p in enumerate(x):
