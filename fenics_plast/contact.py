@@ -315,29 +315,45 @@ class ContactPair:
         return g
 
     def _nodal_gap(self, x):
-        """(g, N) in UFL for a tool whose gap UFL cannot write (a meshed tool): its ``gap_np`` at the pair's
-        nodes, computed again whenever the solver's state changes (``solver.state_hooks``) and linearised
-        about that state, g = g_k + N_k . (x - x_k), N = N_k (CG1 functions: the nodal rule evaluates
-        them at the nodes, where g = g_k at the state itself; the Jacobian eps N_k N_k^T is exact while
-        a node's nearest point lies inside a flat facet)."""
+        """(g, N) in UFL for a tool whose gap UFL cannot write (a meshed tool): its gap, normal and the
+        normal's derivative at the pair's nodes (``tool.nodal_gap``), computed again whenever the solver's
+        state changes (``solver.state_hooks``) and linearised about that state: g = g_k + N_k . (x - x_k),
+        N = N_k + dN_k (x - x_k) (CG1 functions: the nodal rule evaluates them at the nodes, where they are
+        g_k and N_k at the state itself; ``ufl.derivative`` then gives the exact Jacobian eps N N^T + p dN/dx,
+        dN/dx being the normal's turn about a facet edge or vertex that the node's nearest point lies on)."""
         s = self.contact.solver
         Vc, _ = s.displacement_space()
         self._gap_k, self._normal_k, self._position_k = (fem.Function(Vc) for _ in range(3))
+        T = dc.function_space(s.mesh, "Lagrange", 1, (self.gdim, self.gdim))
+        self._turn_k = fem.Function(T)
+        # the pair's owned nodes in T's numbering (the displacement space is a collapsed subspace: its own)
+        X, _ = self._owned_nodes()
+        blocks = fem.locate_dofs_topological(T, s.mesh.topology.dim - 1, self.facet_tags.find(self.tag))
+        blocks = blocks[blocks < T.dofmap.index_map.size_local]
+        XT = T.tabulate_dof_coordinates()[blocks, :self.gdim]
+        mine, theirs = np.lexsort(X.T[::-1]), np.lexsort(XT.T[::-1])
+        if len(X) != len(XT) or not np.array_equal(X[mine], XT[theirs]):
+            raise RuntimeError(f"contact pair {self.tool.name!r}: the tensor space's nodes are not the pair's")
+        self._turn_blocks = np.empty_like(blocks)
+        self._turn_blocks[mine] = blocks[theirs]
         s.state_hooks.append(self._update_nodal_gap)
         self._update_nodal_gap()
-        return self._gap_k[0] + ufl.dot(self._normal_k, x - self._position_k), self._normal_k
+        dx = x - self._position_k
+        return self._gap_k[0] + ufl.dot(self._normal_k, dx), self._normal_k + ufl.dot(self._turn_k, dx)
 
     def _update_nodal_gap(self):
-        """The nodal gaps, normals and positions of :meth:`_nodal_gap` at the solver's current state."""
+        """The nodal gaps, normals, their derivatives and the positions of :meth:`_nodal_gap` at the solver's
+        current state."""
         s = self.contact.solver
         X, idx = self._owned_nodes()
         x = X + s.w.x.array[idx]
-        g, N = self.tool.gap_np(x, s.lam)
-        blocks = self._node_blocks
-        self._gap_k.x.array.reshape(-1, self.gdim)[blocks, 0] = g
-        self._normal_k.x.array.reshape(-1, self.gdim)[blocks] = N
-        self._position_k.x.array.reshape(-1, self.gdim)[blocks] = x
-        for f in (self._gap_k, self._normal_k, self._position_k):
+        g, N, dN = self.tool.nodal_gap(x, s.lam)
+        blocks, d = self._node_blocks, self.gdim
+        self._gap_k.x.array.reshape(-1, d)[blocks, 0] = g
+        self._normal_k.x.array.reshape(-1, d)[blocks] = N
+        self._position_k.x.array.reshape(-1, d)[blocks] = x
+        self._turn_k.x.array.reshape(-1, d * d)[self._turn_blocks] = dN.reshape(-1, d * d)
+        for f in (self._gap_k, self._normal_k, self._position_k, self._turn_k):
             f.x.scatter_forward()
 
     def _owned_nodes(self):

@@ -11,8 +11,8 @@ A :class:`MeshedTool` answers what the solvers ask of a tool: ``gap_np(x, t)`` (
 of :func:`~fenics_plast.solvers.surface_gaps.surface_gaps`, the surface translated by the path) and
 ``translation(t)``. The explicit contact takes its gaps as given (a tool with a ``gap_np`` of its own:
 :mod:`fenics_plast.solvers.explicit_contact`); the static contact forms, which evaluate gaps at the nodes,
-take them as nodal functions computed at every Newton state and linearised about it
-(:meth:`fenics_plast.contact.ContactPair._nodal_gap`, ``has_ufl_gap = False``). Friction and energy as
+take them, and the normal's derivative, as nodal functions computed at every Newton state and linearised
+about it (:meth:`fenics_plast.contact.ContactPair._nodal_gap`, ``has_ufl_gap = False``). Friction and energy as
 for an analytic tool. Units mm.
 """
 from __future__ import annotations
@@ -141,6 +141,13 @@ class MeshedTool:
         """(g (n,) [mm], N (n, dim)) of the positions x (n, dim) (or (n, 3) for a 2-D tool) at time t."""
         from fenics_plast.solvers.surface_gaps import surface_gaps
         return surface_gaps(self.surface, np.asarray(x)[:, :self.dim], self.translation(t, use_ufl=False))
+
+    def nodal_gap(self, x, t):
+        """(g, N, dN/dx (n, dim, dim) [1/mm]) at the positions x (n, dim) at time t: what the static contact
+        forms linearise about (:meth:`fenics_plast.contact.ContactPair._nodal_gap`)."""
+        from fenics_plast.solvers.surface_gaps import surface_gaps
+        return surface_gaps(self.surface, np.asarray(x)[:, :self.dim], self.translation(t, use_ufl=False),
+                            derivative=True)
 
 
 def meshed_tool(name, spec, dim: int, path, comm, scene_dir) -> MeshedTool:

@@ -142,3 +142,28 @@ def test_orientation_is_made_coherent_translation_and_reach():
         build_surface(np.array([[0, 0], [1, 0], [2, 0], [1, 1.0]]), np.array([[0, 1], [1, 2], [1, 3]]), flip=False)
     with pytest.raises(ValueError, match="degenerate"):
         build_surface(np.array([[0, 0], [0, 0.0]]), np.array([[0, 1]]), flip=False)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_normal_derivative_is_the_normals_finite_difference(dim):
+    """dN/dx (the static contact's curvature term at facet edges and vertices) against central differences of
+    N at points outside a faceted circle / sphere, where the nearest point lies on edges and vertices as
+    well as inside facets: equal to 1e-6 at every point whose nearest feature stays put over the difference."""
+    if dim == 2:
+        a = np.linspace(0, 2 * math.pi, 24, endpoint=False)
+        V = 5.0 * np.stack([np.cos(a), np.sin(a)], axis=1)
+        F = np.stack([np.arange(24), (np.arange(24) + 1) % 24], axis=1)
+    else:
+        V, F = icosphere(5.0, 1)
+    s = build_surface(V, F, flip=False)
+    rng = np.random.default_rng(2)
+    x = rng.normal(size=(400, dim))
+    x *= (rng.uniform(5.3, 7.0, 400) / np.linalg.norm(x, axis=1))[:, None]
+    g, N, dN = surface_gaps(s, x, derivative=True)
+    h = 1e-6
+    fd = np.stack([(surface_gaps(s, x + h * e)[1] - surface_gaps(s, x - h * e)[1]) / (2 * h)
+                   for e in np.eye(dim)], axis=2)
+    err = np.abs(fd - dN).max(axis=(1, 2))
+    turning = np.abs(dN).max(axis=(1, 2)) > 0
+    assert turning.mean() > 0.1 and (~turning).mean() > 0.05        # edges/vertices and facet interiors both seen
+    assert np.mean(err < 1e-6) > 0.97, np.sort(err)[-10:]

@@ -180,17 +180,20 @@ def _hierarchy(lo, hi):
             order.astype(np.int64))
 
 
-def surface_gaps(surface: FacetSurface, x, d=None, reach: float = math.inf):
+def surface_gaps(surface: FacetSurface, x, d=None, reach: float = math.inf, derivative: bool = False):
     """(g (n,) [mm], N (n, dim)) of the points x (n, dim) [mm] to ``surface`` translated by d (dim,) [mm]:
-    see the module docstring. Points farther than ``reach`` [mm] get g = reach and N = 0."""
+    see the module docstring. Points farther than ``reach`` [mm] get g = reach and N = 0. With
+    ``derivative``, also dN/dx (n, dim, dim) [1/mm]: 0 where the nearest point lies inside a facet,
+    (I - N N^T - t t^T) / g where it lies on an edge of unit tangent t (3-D), (I - N N^T) / g at a vertex
+    (where the nearest point stays put while x moves, N turns about it); 0 where g is 0 to round-off."""
     s = surface
     dim = s.vertices.shape[1]
     x = np.ascontiguousarray(x, dtype=float)[:, :dim]
     d = np.zeros(dim) if d is None else np.asarray(d, dtype=float)[:dim]
-    g, N = np.empty(len(x)), np.empty((len(x), dim))
+    g, N, dN = np.empty(len(x)), np.empty((len(x), dim)), np.empty((len(x), dim, dim))
     _gaps(s.vertices + d, s.facets, s.normals, s.facet_edges, s.edge_normals, s.vertex_normals, s.box_lo + d,
-          s.box_hi + d, s.children, s.leaf, s.order, x, float(reach), g, N)
-    return g, N
+          s.box_hi + d, s.children, s.leaf, s.order, x, float(reach), g, N, dN)
+    return (g, N, dN) if derivative else (g, N)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -268,9 +271,10 @@ def _box_distance2(p, lo, hi):
 
 
 @_njit
-def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi, children, leaf, order, x, reach, g, N):
-    """g (n,), N (n, dim) of the points x (n, dim) to the surface of vertices V and boxes (already
-    translated); see :func:`surface_gaps`."""
+def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi, children, leaf, order, x, reach, g, N,
+          dN):
+    """g (n,), N (n, dim), dN (n, dim, dim) of the points x (n, dim) to the surface of vertices V and boxes
+    (already translated); see :func:`surface_gaps`."""
     dim = V.shape[1]
     stack = np.empty(2 * len(box_lo) + 2, dtype=np.int64)
     reach2 = reach * reach if reach < math.inf else math.inf
@@ -303,6 +307,7 @@ def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi, ch
             stack[top + 2] = near
             top += 2
         dist = math.sqrt(best)
+        dN[i, :, :] = 0.0
         if facet < 0 or dist > reach:
             g[i] = reach
             N[i, :] = 0.0
@@ -321,5 +326,17 @@ def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi, ch
             N[i, 0], N[i, 1] = sign * r0_ / dist, sign * r1_ / dist
             if dim == 3:
                 N[i, 2] = sign * r2_ / dist
+            if feature != 0:            # on an edge or at a vertex: N turns as x moves (dN/dx)
+                t0 = t1 = t2 = 0.0
+                if feature > dim:       # an edge (3-D): its unit tangent
+                    e = feature - 4
+                    a, b = F[facet, e], F[facet, (e + 1) % 3]
+                    t0, t1, t2 = V[b, 0] - V[a, 0], V[b, 1] - V[a, 1], V[b, 2] - V[a, 2]
+                    tn = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+                    t0, t1, t2 = t0 / tn, t1 / tn, t2 / tn
+                t = (t0, t1, t2)
+                for a in range(dim):
+                    for b in range(dim):
+                        dN[i, a, b] = ((1.0 if a == b else 0.0) - N[i, a] * N[i, b] - t[a] * t[b]) / g[i]
         else:
             N[i, :] = normal
