@@ -30,8 +30,9 @@ before on the reference BLAS 121.4 s, before on OpenBLAS 81.0 s, after 42.4 s (2
 iterations, the contact predictor; force 1.2e-3 apart, the increments differ); per Newton iteration after:
 material 31, assembly 96 (contact 30), factorisation 98 ms. (Counts before 2026-11-26 evening, 157.8 s
 before and 3.80x, timed the "before" kernels' compilation: the runs inherited the NUMBA_CACHE_DIR that this
-script's own import of the after tree set; they start from :data:`ENVIRONMENT` now.) ``--large`` runs the 3-D punch refined twice in
-every direction (10,800 hexahedra, 52,665 dofs) to 4 mm of punch travel, after only, with MUMPS and GAMG, on
+script's own import of the after tree set; they start from :data:`ENVIRONMENT` now.)
+
+``--large`` runs the 3-D punch refined twice in every direction (10,800 hexahedra, 52,665 dofs) to 4 mm of punch travel, after only, with MUMPS and GAMG, on
 1 and 2 ranks (``--large-runs``): time per Newton iteration, its split, and the peak memory of the largest
 process. Measured: MUMPS 6.45 s (1 rank, 831 MB), 5.05 s (2 ranks, 622 MB); GAMG 14.7 s (1 rank, 720 MB),
 19.1 s (2 ranks, 523 MB, with another job on the cores); 70 Newton iterations each, the same force.

@@ -6,9 +6,9 @@ input. :meth:`PlotWorker.draw` sends it the folder and the scene's settings once
 complete, and returns when the PNGs are written (the run ends after its plots, as before: nothing is
 left running). The figures are :func:`fenics_plast.plots.draw_declared`'s, the same as in process and
 as ``fenics-plast plot DIR``; the worker, which runs no MPI or PETSc, draws them in forked processes, one
-per available core and one more (the run waits idle meanwhile; the default Taylor bar's three figures on 2
-cores: 0.55 s in one process, 0.43 s in two, 0.35 s in three after a warm-up figure of each kind). If the run stops early the
-worker sees its input close and exits without drawing.
+per available core and one more (the run waits idle meanwhile; the default Taylor bar's three figures on
+2 cores: 0.55 s in one process, 0.43 s in two, 0.35 s in three after a warm-up figure of each kind). If
+the run stops early the worker sees its input close and exits without drawing.
 
 Protocol: one JSON line on stdin, ``{"out_dir", "settings", "title", "references"}``; one JSON line
 on stdout, ``{"paths": [...]}`` or ``{"error": "..."}``. Standard library, numpy and matplotlib only.
