@@ -32,9 +32,9 @@ material 31, assembly 96 (contact 30), factorisation 98 ms. (Counts before 2026-
 before and 3.80x, timed the "before" kernels' compilation: the runs inherited the NUMBA_CACHE_DIR that this
 script's own import of the after tree set; they start from :data:`ENVIRONMENT` now.)
 
-``--large`` runs the 3-D punch refined twice in every direction (10,800 hexahedra, 52,665 dofs) to 4 mm of punch travel, after only, with MUMPS and GAMG, on
-1 and 2 ranks (``--large-runs``): time per Newton iteration, its split, and the peak memory of the largest
-process. Measured: MUMPS 6.45 s (1 rank, 831 MB), 5.05 s (2 ranks, 622 MB); GAMG 14.7 s (1 rank, 720 MB),
+``--large`` runs the 3-D punch refined twice in every direction (10,800 hexahedra, 52,665 dofs) to 4 mm of
+punch travel, after only, with MUMPS and GAMG, on 1 and 2 ranks (``--large-runs``): time per Newton
+iteration, its split, and the peak memory of the largest process. Measured: MUMPS 6.45 s (1 rank, 831 MB), 5.05 s (2 ranks, 622 MB); GAMG 14.7 s (1 rank, 720 MB),
 19.1 s (2 ranks, 523 MB, with another job on the cores); 70 Newton iterations each, the same force.
 """
 from __future__ import annotations
