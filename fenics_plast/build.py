@@ -272,9 +272,30 @@ def contact_pairs(problem, mesh, facet_tags, groups, material, tools) -> dict[st
         depth = contact_length_scale(mesh, facet_tags, tag)
         default = default_penalty(contact_modulus(material, mesh, facet_tags, tag), depth)
         eps = spec.penalty if spec.penalty is not None else default
+        if not getattr(tools[spec.tool], "has_ufl_gap", True):
+            _check_starting_side(spec, tools[spec.tool], mesh, facet_tags, tag, depth)
         out[name] = ContactPair(name, tools[spec.tool], tag, eps, spec.friction, spec.law, spec.tangential_penalty,
                                 depth, default)
     return out
+
+
+def _check_starting_side(spec, tool, mesh, facet_tags, tag, depth):
+    """A meshed tool whose normals point away from the body (``flip`` the wrong way) has the contact group
+    inside it from the start: SceneError if a node of the cells along the group lies more than half a cell
+    depth [mm] inside the tool at t = 0 (collective)."""
+    from fenics_plast.errors import SceneError
+    fdim = mesh.topology.dim - 1
+    mesh.topology.create_connectivity(fdim, fdim + 1)
+    f2c = mesh.topology.connectivity(fdim, fdim + 1)
+    facets = facet_tags.find(tag)
+    cells = np.unique(np.concatenate([f2c.links(f) for f in facets])) if len(facets) else np.zeros(0, int)
+    x = mesh.geometry.x[np.unique(dc.geometry_dofs(mesh)[cells]), :tool.dim]
+    g_min = float(tool.gap_np(x, 0.0)[0].min()) if len(x) else np.inf
+    g_min = mesh.comm.allreduce(g_min, op=MPI.MIN)
+    if g_min < -0.5 * depth:
+        raise SceneError(f"tools.{spec.tool}: contact group {spec.group!r} starts {-g_min:.3g} mm inside the meshed "
+                         f"tool (its cells are {depth:.3g} mm deep): the body lies on the side the surface's normals "
+                         f"point away from; set tools.{spec.tool}.flip = {str(not tool.flip).lower()}")
 
 
 # ----------------------------------------------------------------------------------------------

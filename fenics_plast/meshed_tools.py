@@ -117,13 +117,15 @@ def _group_facets(gmsh, path, group, dim):
 
 class MeshedTool:
     """A rigid tool whose surface is ``surface`` (:class:`~fenics_plast.solvers.surface_gaps.FacetSurface`),
-    translating along ``path`` (as :class:`fenics_plast.tools.Tool`'s: a function of t, None = fixed)."""
+    translating along ``path`` (as :class:`fenics_plast.tools.Tool`'s: a function of t, None = fixed);
+    ``flip`` as in the scene."""
 
-    def __init__(self, surface, path=None, name=SHAPE):
+    def __init__(self, surface, flip: bool, path=None, name=SHAPE):
         self.surface = surface
         self.dim = surface.vertices.shape[1]
         self.path = path
         self.name = name
+        self.flip = flip            # the scene's flip, which built ``surface`` (for messages)
 
     #: its gap is computed at the nodes (gap_np), not written in UFL (fenics_plast.contact.ContactPair)
     has_ufl_gap = False
@@ -162,4 +164,4 @@ def meshed_tool(name, spec, dim: int, path, comm, scene_dir) -> MeshedTool:
         surface = build_surface(vertices, facets, flip=bool(spec.flip))
     except (SceneError, ValueError) as e:
         raise SceneError(f"tools.{name}: {e}") from None
-    return MeshedTool(surface, path, name)
+    return MeshedTool(surface, bool(spec.flip), path, name)
