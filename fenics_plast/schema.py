@@ -144,7 +144,7 @@ def _hardening_table() -> Table:
 
 def _tools_table() -> Table:
     """``tools.<name>``, gathered from the shapes' declarations (:mod:`fenics_plast.tool_shapes`,
-    :func:`_gathered`), and the tool's path."""
+    :func:`_gathered`) and the meshed tool's (:mod:`fenics_plast.meshed_tools`), and the tool's path."""
     shapes = tool_shapes().values()
     by_dim = {d: ", ".join([s.name for s in shapes if d in s.dims] + [meshed_tools.SHAPE]) for d in (2, 3)}
     keys = {"shape": Key("str", REQUIRED, "; ".join([s.doc for s in shapes] + [meshed_tools.DOC]) + ".",
