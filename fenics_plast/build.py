@@ -242,10 +242,11 @@ def tool_force_of(problem, pairs, dim) -> Callable[[str], np.ndarray]:
 
 @dataclass(frozen=True)
 class ContactPair:
-    """One [contact.<name>] pair resolved on the mesh: the tool, its group's facet tag, the penalty
-    [N/mm^3] (``contact.<name>.penalty`` or ``default_penalty``), friction, law and tangential penalty
-    [N/mm^3] (None: the solver's), the mean depth [mm] of the cells along the group and the pair's
-    default penalty [N/mm^3] (0.3 E / depth)."""
+    """One [contact.<name>] pair resolved on the mesh: the tool (None for a master group of the body), its
+    group's facet tag, the penalty [N/mm^3] (``contact.<name>.penalty`` or ``default_penalty``), friction,
+    law and tangential penalty [N/mm^3] (None: the solver's), the mean depth [mm] of the cells along the
+    group and the pair's default penalty [N/mm^3] (0.3 E / depth); with a master group of the body, its
+    facet tag and whether the master's nodes are pressed against the group's facets too (two passes)."""
     name: str
     tool: Any
     tag: int
@@ -255,6 +256,8 @@ class ContactPair:
     tangential_penalty: float | None
     depth: float
     default_penalty: float
+    master_tag: int | None = None
+    two_pass: bool = False
 
     def options(self) -> dict:
         """The keyword arguments of the solvers' ``add_pair`` / ``add_contact``."""
@@ -272,6 +275,11 @@ def contact_pairs(problem, mesh, facet_tags, groups, material, tools) -> dict[st
         depth = contact_length_scale(mesh, facet_tags, tag)
         default = default_penalty(contact_modulus(material, mesh, facet_tags, tag), depth)
         eps = spec.penalty if spec.penalty is not None else default
+        master = spec.get("master")
+        if master is not None:
+            out[name] = ContactPair(name, None, tag, eps, spec.friction, spec.law, spec.tangential_penalty, depth,
+                                    default, master_tag=groups[master][1], two_pass=spec.two_pass is not False)
+            continue
         if not getattr(tools[spec.tool], "has_ufl_gap", True):
             _check_starting_side(spec, tools[spec.tool], mesh, facet_tags, tag, depth)
         out[name] = ContactPair(name, tools[spec.tool], tag, eps, spec.friction, spec.law, spec.tangential_penalty,

@@ -59,6 +59,8 @@ def read_mesh(problem, comm, trust_mesh_script=False):
             need(f"boundary.{n}.group", b.group, fdim)
     for n, c in problem.contact.items():
         need(f"contact.{n}.group", c.group, fdim)
+        if c.get("master") is not None:
+            need(f"contact.{n}.master", c.master, fdim)
     for n, o in problem.outputs.items():
         for k in ("group", "opposite"):
             if o.get(k) is not None:

@@ -319,11 +319,22 @@ SCHEMA: dict[str, Table] = {
         }),
     "tools": _tools_table(),
     "contact": Table(
-        "Contact pairs, one table per name: a tool against a facet group of the body (penalty, nodal rule).",
+        "Contact pairs, one table per name: the nodes of a facet group of the body against a master surface, "
+        "a rigid tool or (explicit) another facet group of the body (penalty, nodal rule).",
         collection=True, keys={
-            "tool": Key("str", REQUIRED, "Name of a [tools.<name>] table."),
+            "tool": Key("str", OPTIONAL, "Name of a [tools.<name>] table: the master surface is that rigid "
+                        "tool. Exactly one of tool and master."),
+            "master": Key("str", OPTIONAL, "Gmsh physical curve (3-D: surface) name of a facet group of the "
+                          "body (explicit): the master surface is that part of the body's boundary at its "
+                          "current positions; two bodies are two regions of one mesh. Each force on a node of "
+                          "`group` has its reaction on the nodes of the master facet it presses on. Exactly one "
+                          "of tool and master; not `group` itself (self-contact is not available yet).",
+                          when_analysis=EXPLICIT),
+            "two_pass": Key("bool", OPTIONAL, "With master: also the master group's nodes against the group's "
+                            "facets, the same law and penalty (symmetric: neither side passes through the "
+                            "other); absent = true; false: the group's nodes only.", when_analysis=EXPLICIT),
             "group": Key("str", REQUIRED, "Gmsh physical curve (3-D: surface) name of the body's candidate "
-                         "facets."),
+                         "facets (the slave nodes)."),
             "friction": Key("float", 0.0, "Coulomb coefficient mu (0: frictionless, no friction term).", "",
                             **_nonneg()),
             "law": Key("str", "quasi-coulomb", "coulomb: current p and N; quasi-coulomb: p and N frozen over an "

@@ -432,8 +432,16 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
                 v.fail(f"initial_velocity.{n}.value[{i}] may depend on x, y, z only, not on t")
     tools = t["tools"]
     for n, c in t["contact"].items():
-        if c.tool not in tools:
+        master = c.get("master")
+        if (c.tool is None) == (master is None):
+            v.fail(f"contact.{n}: give exactly one master surface, tool (a rigid tool) or master (a facet group "
+                   f"of the body, explicit analyses)")
+        elif c.tool is not None and c.tool not in tools:
             v.fail(f"contact.{n}.tool = {c.tool!r} is not a tool: tools are {', '.join(tools) or 'none'}")
+        elif master is not None and master == c.group:
+            v.fail(f"contact.{n}.master = {master!r} is the pair's own group: self-contact is not available yet")
+        if c.get("two_pass") is not None and master is None:
+            v.fail(f"contact.{n}.two_pass applies to a pair with master (a facet group of the body)")
     column_count = {n: len(column_names(n, o)) for n, o in t["outputs"].items()}
     # expressions may name the one-column outputs declared before them; at_max_of any one-column one
     single_columns = [n for n, o in t["outputs"].items()

@@ -11,8 +11,12 @@ translation over the step): energy taken up by the contact (penalty energy + fri
 E_c += -(f_c,n + f_c,n+1)/2 . (du - dd), and the work of the moving tool
 W_tool += (F_c,n + F_c,n+1)/2 . dd.
 
-Codes: a tool's kind is its shape's code (:mod:`fenics_plast.tool_shapes`) or :data:`GENERIC` (gap and
-normal given, from the tool's ``gap_np``); friction laws :data:`COULOMB`, :data:`QUASI_COULOMB`.
+Codes: a tool's kind is its shape's code (:mod:`fenics_plast.tool_shapes`), :data:`GENERIC` (gap and
+normal given, from the tool's ``gap_np``) or :data:`BODY` (a master surface of the body,
+:mod:`fenics_plast.solvers.body_surface`: gap, normal and the increment dd of the nearest master point
+given per node; dd takes the tool translation's place in the slip and the energy, and the pair does no
+tool work; the reactions on the master nodes are added by the caller); friction laws :data:`COULOMB`,
+:data:`QUASI_COULOMB`.
 """
 from __future__ import annotations
 
@@ -26,6 +30,7 @@ from fenics_plast.solvers.tool_gaps import FLAGS, gap_2d, gap_3d
 _njit = numba.njit(cache=True, **FLAGS)
 
 GENERIC = -1                    # a tool whose gap and normal come from its gap_np (any other kind: a shape code)
+BODY = -2                       # a master surface of the body: gap, normal and the master point's increment given
 COULOMB, QUASI_COULOMB = 0, 1
 
 
@@ -42,7 +47,8 @@ class ContactArrays(NamedTuple):
     eps_t: np.ndarray       # (npairs,) tangential penalties [N/mm^3]
     mu: np.ndarray          # (npairs,) friction coefficients
     law: np.ndarray         # (npairs,) COULOMB | QUASI_COULOMB
-    gN: np.ndarray          # (nc, 1 + dim) given gaps and normals of GENERIC tools
+    gN: np.ndarray          # (nc, 1 + dim) given gaps and normals of GENERIC tools and BODY surfaces
+    dd_node: np.ndarray     # (nc, dim) BODY: the increment of the node's nearest master point over the step [mm]
     t_hist: np.ndarray      # (nc, dim) tangential tractions [MPa]
     N_hist: np.ndarray      # (nc, dim) normals
     p_hist: np.ndarray      # (nc,) pressures [MPa]
@@ -61,7 +67,8 @@ def contact_forces(u, du, dt, c, trans_old, trans_new, fcon):
     Nodes k (all pairs concatenated): cdofs (nc, 2) their owned dofs, X (nc, 2) reference position
     [mm], cpair (nc,) pair index, area (nc,) tributary area int N_k w dA0 [mm^2]. Per pair p:
     kind the tool's shape code with its parameter vector params[p] (:func:`~fenics_plast.solvers.tool_gaps.gap_2d`)
-    or GENERIC (gap and normal given in gN (nc, 3) = (g, N_x, N_y), computed by the tool's gap_np);
+    or GENERIC (gap and normal given in gN (nc, 3) = (g, N_x, N_y), computed by the tool's gap_np) or BODY
+    (gN given, and the master point's increment dd_node (nc, 2) [mm] in place of the tool's translation);
     eps, eps_t normal and tangential penalties [N/mm^3], mu, law COULOMB | QUASI_COULOMB;
     trans_old, trans_new (npairs, 2) tool translation at t_n, t_{n+1} [mm].
 
@@ -94,10 +101,14 @@ def contact_forces(u, du, dt, c, trans_old, trans_new, fcon):
         iy = cdofs[k, 1]
         x = X[k, 0] + u[ix]
         y = X[k, 1] + u[iy]
-        ddx = trans_new[pr, 0] - trans_old[pr, 0]
-        ddy = trans_new[pr, 1] - trans_old[pr, 1]
         kd = kind[pr]
-        if kd == GENERIC:
+        if kd == BODY:
+            ddx = c.dd_node[k, 0]
+            ddy = c.dd_node[k, 1]
+        else:
+            ddx = trans_new[pr, 0] - trans_old[pr, 0]
+            ddy = trans_new[pr, 1] - trans_old[pr, 1]
+        if kd < 0:
             g = gN[k, 0]
             nx = gN[k, 1]
             ny = gN[k, 2]
@@ -129,7 +140,8 @@ def contact_forces(u, du, dt, c, trans_old, trans_new, fcon):
         mx = 0.5 * (fc[k, 0] + fx)
         my = 0.5 * (fc[k, 1] + fy)
         acc[pr, 0] -= mx * sx + my * sy
-        acc[pr, 1] += mx * ddx + my * ddy
+        if kd != BODY:
+            acc[pr, 1] += mx * ddx + my * ddy
         acc[pr, 2] += dt * mx
         acc[pr, 3] += dt * my
         fc[k, 0] = fx
@@ -173,7 +185,13 @@ def contact_forces_3d(u, du, dt, c, trans_old, trans_new, fcon):
     for k in range(nc):
         pr = cpair[k]
         kd = kind[pr]
-        if kd == GENERIC:
+        if kd == BODY:
+            dd0, dd1, dd2 = c.dd_node[k, 0], c.dd_node[k, 1], c.dd_node[k, 2]
+        else:
+            dd0 = trans_new[pr, 0] - trans_old[pr, 0]
+            dd1 = trans_new[pr, 1] - trans_old[pr, 1]
+            dd2 = trans_new[pr, 2] - trans_old[pr, 2]
+        if kd < 0:
             g = gN[k, 0]
             for j in range(3):
                 N[j] = gN[k, 1 + j]
@@ -183,9 +201,9 @@ def contact_forces_3d(u, du, dt, c, trans_old, trans_new, fcon):
             for j in range(3):
                 N[j] = n[j]
         p = eps[pr] * (-g) if g < 0.0 else 0.0
-        s0 = du[cdofs[k, 0]] - (trans_new[pr, 0] - trans_old[pr, 0])
-        s1 = du[cdofs[k, 1]] - (trans_new[pr, 1] - trans_old[pr, 1])
-        s2 = du[cdofs[k, 2]] - (trans_new[pr, 2] - trans_old[pr, 2])
+        s0 = du[cdofs[k, 0]] - dd0
+        s1 = du[cdofs[k, 1]] - dd1
+        s2 = du[cdofs[k, 2]] - dd2
         t0 = 0.0
         t1 = 0.0
         t2 = 0.0
@@ -219,8 +237,8 @@ def contact_forces_3d(u, du, dt, c, trans_old, trans_new, fcon):
         m1 = 0.5 * (fc[k, 1] + f1)
         m2 = 0.5 * (fc[k, 2] + f2)
         acc[pr, 0] -= m0 * s0 + m1 * s1 + m2 * s2
-        acc[pr, 1] += (m0 * (trans_new[pr, 0] - trans_old[pr, 0]) + m1 * (trans_new[pr, 1] - trans_old[pr, 1])
-                       + m2 * (trans_new[pr, 2] - trans_old[pr, 2]))
+        if kd != BODY:
+            acc[pr, 1] += m0 * dd0 + m1 * dd1 + m2 * dd2
         acc[pr, 2] += dt * m0
         acc[pr, 3] += dt * m1
         acc[pr, 4] += dt * m2

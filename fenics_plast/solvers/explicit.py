@@ -89,7 +89,7 @@ from fenics_plast.solvers.fused_force_hex import HexGeometry, hex_folded_cells
 from fenics_plast.solvers import integrator as ti
 from fenics_plast.solvers import time_stepping
 from fenics_plast.solvers.cell_steps import CellSteps, cell_masses
-from fenics_plast.solvers.explicit_contact import ContactSet
+from fenics_plast.solvers.explicit_contact import ContactSet, TwoPassPair
 from fenics_plast.solvers.walls import RigidWalls
 
 
@@ -407,6 +407,25 @@ class ExplicitDynamics:
         self._before_start("contact pairs")
         return self.contact.add(tool, facet_tags, tag, penalty=penalty, friction=friction, law=law,
                                 tangential_penalty=tangential_penalty, name=name)
+
+    def add_surface_contact(self, facet_tags, tag, master_tag, penalty, two_pass=True,
+                            friction=default("contact.*.friction"), law=default("contact.*.law"),
+                            tangential_penalty=None, name=None):
+        """Penalty contact (+ Coulomb friction) of the nodes of the facets tagged ``tag`` against the body's
+        own facets tagged ``master_tag`` at their current positions, the reactions on the master facets'
+        nodes (:mod:`~fenics_plast.solvers.body_surface`); ``two_pass``: also the master group's nodes
+        against the facets tagged ``tag``. Other arguments as :meth:`add_contact`. Returns the
+        :class:`~fenics_plast.solvers.explicit_contact.ExplicitContactPair` (one pass) or
+        :class:`~fenics_plast.solvers.explicit_contact.TwoPassPair`. Lowers :meth:`stable_dt`. Collective."""
+        self._before_start("contact pairs")
+        options = dict(penalty=penalty, friction=friction, law=law, tangential_penalty=tangential_penalty)
+        forward = self.contact.add(self.contact.surface(facet_tags, master_tag), facet_tags, tag, **options,
+                                   name=name)
+        if not two_pass:
+            return forward
+        backward = self.contact.add(self.contact.surface(facet_tags, tag), facet_tags, master_tag, **options,
+                                    name=name)
+        return TwoPassPair(forward, backward)
 
     # ------------------------------------------------------------------------------------------
     def add_wall(self, component, position, nodes=None, name=None):

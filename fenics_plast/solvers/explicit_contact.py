@@ -56,6 +56,7 @@ from petsc4py import PETSc
 from fenics_plast.contact import LAWS
 from fenics_plast.tools import Tool
 from fenics_plast.solvers import contact_kernels as ck
+from fenics_plast.solvers.body_surface import BodySurface
 
 _LAW_CODE = {"coulomb": ck.COULOMB, "quasi-coulomb": ck.QUASI_COULOMB}
 
@@ -68,10 +69,26 @@ def _hist_cols(dim):
 
 def _tool_kind(tool):
     """(kind, params) of the compiled gap: a :class:`~fenics_plast.tools.Tool`'s shape code and parameter
-    vector, or (GENERIC, empty) for any other tool, or a Tool subclass with a gap_np of its own."""
+    vector, (BODY, empty) for a master surface of the body, or (GENERIC, empty) for any other tool, or a
+    Tool subclass with a gap_np of its own."""
     if isinstance(tool, Tool) and type(tool).gap_np is Tool.gap_np:
         return tool.shape.code, np.asarray(tool.params, dtype=float)
+    if isinstance(tool, BodySurface):
+        return ck.BODY, np.zeros(0)
     return ck.GENERIC, np.zeros(0)
+
+
+def _tributary_areas(solver, facet_tags, tag):
+    """int N_i w dA0 [mm^2] of every owned node i (x dof index, (n_own,) unrolled) over the facets tagged
+    ``tag`` (degree 4: exact for N_i times the linear weight; collective)."""
+    s = solver
+    ds = ufl.Measure("ds", domain=s.mesh, subdomain_data=facet_tags, metadata={"quadrature_degree": 4})(tag)
+    ones = fem.Constant(s.mesh, PETSc.ScalarType((1.0,) * s.bs))
+    b = fem_petsc.assemble_vector(fem.form(ufl.inner(ones, ufl.TestFunction(s.V)) * s.kin.weight * ds))
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    areas = b.array[: s.n_own].copy()
+    b.destroy()
+    return areas
 
 
 class ExplicitContactPair:
@@ -113,16 +130,19 @@ class ExplicitContactPair:
         nodes = xdofs // bs
         self.dofs = np.ascontiguousarray(np.stack([nodes * bs + j for j in range(bs)], axis=1))   # (nc, dim)
         self.X = np.ascontiguousarray(s.reference_positions[nodes, :bs])                           # (nc, dim) [mm]
-        # tributary areas int N_i w dA0 (degree 4: exact for N_i times the linear weight)
-        ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags, metadata={"quadrature_degree": 4})(tag)
-        ones = fem.Constant(mesh, PETSc.ScalarType((1.0,) * bs))
-        b = fem_petsc.assemble_vector(fem.form(ufl.inner(ones, ufl.TestFunction(V)) * s.kin.weight * ds))
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        self.area = b.array[self.dofs[:, 0]].copy()                                          # (nc,) [mm^2]
-        b.destroy()
+        areas = _tributary_areas(s, facet_tags, tag)
+        self.area = areas[self.dofs[:, 0]].copy()                                             # (nc,) [mm^2]
         total = self.comm.allreduce(float(self.area.sum()), op=MPI.SUM)
         if total <= 0.0:
             raise ValueError(f"contact pair {self.name!r}: facet group {tag} has no facets (zero area)")
+        if self.kind == ck.BODY:
+            # a node does not touch the facets it belongs to (the slave and master groups may share nodes);
+            # the master nodes' springs (their tributary areas on the master group) enter the stable step
+            imap = V.dofmap.index_map
+            self.skip = tool.skip_of(imap.local_to_global(nodes.astype(np.int32)))
+            self.master_area = _tributary_areas(s, facet_tags, tool.tag)[tool.dofs[:, 0]]
+        else:
+            self.skip = np.full(len(nodes), -1, dtype=np.int64)
         # stable step of the node on its penalty spring
         k = max(self.penalty, self.tangential_penalty if self.friction > 0 else 0.0) * self.area
         m = s.mass[self.dofs[:, 0]]
@@ -134,7 +154,7 @@ class ExplicitContactPair:
     @property
     def compiled(self):
         """True if the gap is computed in compiled code (every :class:`~fenics_plast.tools.Tool`)."""
-        return self.kind != ck.GENERIC
+        return self.kind >= 0
 
     def translation(self, t):
         """The tool's translation at time t [s] (dim,) [mm]."""
@@ -179,7 +199,8 @@ class ExplicitContactPair:
         return self._sum(float(self.set.acc[self.index, 0]))
 
     def tool_work(self):
-        """Work of the tool's motion on the body [N mm] (0 for a fixed tool)."""
+        """Work of the tool's motion on the body [N mm] (0 for a fixed tool and a master surface of the
+        body, whose work on the body is part of :meth:`contact_work`)."""
         return self._sum(float(self.set.acc[self.index, 1]))
 
     def impulse(self):
@@ -205,6 +226,56 @@ class ExplicitContactPair:
         return int(tot[0]), int(tot[1])
 
 
+class TwoPassPair:
+    """A contact pair between two facet groups of the body taken both ways: ``forward`` (the group's nodes
+    against the master's facets) and ``backward`` (the master's nodes against the group's facets), each an
+    :class:`ExplicitContactPair` of the same law and penalty. Reports as one pair: forces on the group's
+    side (each pass's forces on its slaves, and the reactions of the other's), energies and penetrations of
+    both. Collective methods, as the passes'."""
+
+    def __init__(self, forward, backward):
+        self.forward, self.backward = forward, backward
+        self.name, self.penalty = forward.name, forward.penalty
+
+    def force(self):
+        """Force [N] (dim,) on the group's nodes' body from the master's: forward's forces on its slaves less
+        backward's (whose reactions act on the group's nodes)."""
+        return np.asarray(self.forward.force()) - np.asarray(self.backward.force())
+
+    def normal_force(self):
+        """sum A p over both passes [N] (each carries a share of the interface's force)."""
+        return self.forward.normal_force() + self.backward.normal_force()
+
+    def tangential_force(self):
+        """Tangential force [N] on the group's side: 2-D signed along forward's T (backward's T is opposite:
+        its share adds), 3-D the vector."""
+        if self.forward.dim == 3:
+            return np.asarray(self.forward.tangential_force()) - np.asarray(self.backward.tangential_force())
+        return self.forward.tangential_force() + self.backward.tangential_force()
+
+    def max_penetration(self):
+        return max(self.forward.max_penetration(), self.backward.max_penetration())
+
+    def max_penetration_run(self):
+        return max(self.forward.max_penetration_run(), self.backward.max_penetration_run())
+
+    def contact_work(self):
+        return self.forward.contact_work() + self.backward.contact_work()
+
+    def tool_work(self):
+        return 0.0
+
+    def impulse(self):
+        return np.asarray(self.forward.impulse()) - np.asarray(self.backward.impulse())
+
+    def stored_energy(self):
+        return self.forward.stored_energy() + self.backward.stored_energy()
+
+    def status(self):
+        a, b = self.forward.status(), self.backward.status()
+        return a[0] + b[0], a[1] + b[1]
+
+
 class ContactSet:
     """All contact pairs of one solver, their nodes concatenated in the arrays of
     :func:`~fenics_plast.solvers.contact_kernels.contact_forces` (rank-local rows)."""
@@ -213,7 +284,15 @@ class ContactSet:
         self.solver = solver
         self.dim = solver.bs                 # components per node: 2 (2-D) or 3 (3-D)
         self.pairs: list[ExplicitContactPair] = []
+        self._surfaces: dict[int, BodySurface] = {}
         self._build()
+
+    def surface(self, facet_tags, tag):
+        """The :class:`~fenics_plast.solvers.body_surface.BodySurface` of the facets tagged ``tag`` (one per
+        group, shared by the pairs that press on it; collective on first use)."""
+        if tag not in self._surfaces:
+            self._surfaces[tag] = BodySurface(self.solver, facet_tags, tag)
+        return self._surfaces[tag]
 
     def add(self, tool, facet_tags, tag, **kw):
         pair = ExplicitContactPair(self, len(self.pairs), tool, facet_tags, tag, **kw)
@@ -256,6 +335,10 @@ class ContactSet:
         self.law = np.array([_LAW_CODE[p.law] for p in P], dtype=np.int64)
         n = self.X.shape[0]
         self.gN = np.zeros((n, 1 + d))
+        self.dd_node = np.zeros((n, d))
+        self.skip = cat([p.skip for p in P], (0,), np.int64).astype(np.int64)
+        self.facet = np.full(n, -1, dtype=np.int64)
+        self.weights = np.zeros((n, d))
         self.t_hist = np.zeros((n, d))
         self.N_hist = np.zeros((n, d))
         self.p_hist = np.zeros(n)
@@ -266,7 +349,7 @@ class ContactSet:
         self.pen = np.zeros(len(P))
         # the kernel's record of these very arrays (it updates the history in place; restore writes into them)
         self._arrays = ck.ContactArrays(self.X, self.dofs, self.pair, self.area, self.kind, self.params, self.eps,
-                                        self.eps_t, self.mu, self.law, self.gN, self.t_hist, self.N_hist,
+                                        self.eps_t, self.mu, self.law, self.gN, self.dd_node, self.t_hist, self.N_hist,
                                         self.p_hist, self.t_scal, self.slip, self.fc, self.acc, self.pen)
         self._dt_stable = self._combined_dt() if P else math.inf
 
@@ -277,12 +360,18 @@ class ContactSet:
 
     def _combined_dt(self):
         """The penalty springs' stable-step limit with the springs of all pairs summed per node
-        (collective: called when a pair is added)."""
+        (collective: called when a pair is added). A pair against a master surface of the body has its
+        springs between two moving nodes: each counts twice (two equal masses on a spring k vibrate as one
+        on 2 k), on the slave nodes and, with their tributary areas on the master group, on the master
+        nodes."""
         s = self.solver
         k = np.zeros(s.n_own // s.bs)
         for p in self.pairs:
-            np.add.at(k, p.dofs[:, 0] // s.bs,
-                      max(p.penalty, p.tangential_penalty if p.friction > 0 else 0.0) * p.area)
+            eps = max(p.penalty, p.tangential_penalty if p.friction > 0 else 0.0)
+            both = 2.0 if p.kind == ck.BODY else 1.0
+            np.add.at(k, p.dofs[:, 0] // s.bs, both * eps * p.area)
+            if p.kind == ck.BODY:
+                np.add.at(k, p.tool.dofs[:, 0] // s.bs, both * eps * p.master_area)
         m = s.mass[0::s.bs][: k.size]
         on = k > 0
         loc = float(np.min(2.0 * np.sqrt(m[on] / k[on]))) if on.any() else math.inf
@@ -305,14 +394,27 @@ class ContactSet:
 
     def update(self, u, du, dt, trans_old, trans_new, fcon, t):
         """Contact forces at the current positions X + u and time t into fcon (see contact_forces);
-        the gaps of generic tools come from their gap_np."""
+        the gaps of generic tools come from their gap_np; master surfaces of the body are moved to
+        X + u (du their increment over the step), searched, and take the reactions (collective when the
+        set has such pairs)."""
+        body = [p for p in self.pairs if p.kind == ck.BODY]
+        for surface in {id(p.tool): p.tool for p in body}.values():
+            surface.move(u, du)
+            fcon[surface.dofs] = 0.0
         for p in self.pairs:
-            if not p.compiled and p.X.shape[0]:
+            if p.kind == ck.BODY:
+                n = p.X.shape[0]
+                g, N, facet, w = np.empty(n), np.empty((n, self.dim)), np.empty(n, np.int64), np.empty((n, self.dim))
+                self.dd_node[p.sl] = p.tool.nearest(p.X + u[p.dofs], self.skip[p.sl], g, N, facet, w)
+                self.gN[p.sl, 0], self.gN[p.sl, 1:], self.facet[p.sl], self.weights[p.sl] = g, N, facet, w
+            elif not p.compiled and p.X.shape[0]:
                 x = p.X + u[p.dofs]
                 g, N = p.tool.gap_np(x, t)
                 self.gN[p.sl, 0] = g
                 self.gN[p.sl, 1:] = np.asarray(N)[:, :self.dim]
         ck.contact_forces(u, du, dt, self.args(), trans_old, trans_new, fcon)
+        for p in body:
+            p.tool.add_reactions(self.facet[p.sl], self.weights[p.sl], self.fc[p.sl], fcon)
 
     # -- checkpoints -------------------------------------------------------------------------
     def state_dict(self, dof_keys, comm):

@@ -115,41 +115,50 @@ def build_surface(vertices, facets, flip: bool) -> FacetSurface:
     if V.ndim != 2 or V.shape[1] not in (2, 3) or F.ndim != 2 or F.shape[1] != V.shape[1] or len(F) == 0:
         raise ValueError(f"a surface needs vertices (nv, 2 or 3) and facets (nf, dim) of as many vertices as "
                          f"dimensions, got {V.shape} and {F.shape}")
-    dim = V.shape[1]
     if F.min() < 0 or F.max() >= len(V):
         raise ValueError("a facet names a vertex that does not exist")
-    F = _orient(F, dim)
+    F = _orient(F, V.shape[1])
     if flip:
         F = np.ascontiguousarray(F[:, ::-1])
+    return oriented_surface(V, F)
+
+
+def oriented_surface(vertices, facets) -> FacetSurface:
+    """The :class:`FacetSurface` of facets (nf, dim) already oriented as wanted (their normals point to the
+    side a point's gap is positive on: left of a segment's direction, right-handed about a triangle's
+    vertex order), e.g. a body's boundary facets turned to point out of its cells. ValueError for a
+    degenerate facet."""
+    V = np.array(vertices, dtype=float)
+    F = np.ascontiguousarray(facets, dtype=np.int64)
+    dim = V.shape[1]
     P = V[F]                                                   # (nf, dim, dim)
-    if dim == 2:
-        t = P[:, 1] - P[:, 0]
-        n = np.stack([-t[:, 1], t[:, 0]], axis=1)              # left of the segment's direction
-    else:
-        n = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])     # right-handed about the vertex order
-    size = np.linalg.norm(n, axis=1)
+    size = np.linalg.norm(P[:, 1] - P[:, 0], axis=1) if dim == 2 else \
+        np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
     if not np.all(size > 0):
         raise ValueError(f"facet {int(np.argmin(size))} of the surface is degenerate (zero length or area)")
-    n = n / size[:, None]
-    vertex_normals = np.zeros_like(V)
     if dim == 2:
-        np.add.at(vertex_normals, F[:, 0], n)
-        np.add.at(vertex_normals, F[:, 1], n)
-        facet_edges, edge_normals = np.zeros((len(F), 0), dtype=np.int64), np.zeros((0, 2))
+        facet_edges, n_edges = np.zeros((len(F), 0), dtype=np.int64), 0
     else:
-        for k in range(3):                                     # angle-weighted vertex pseudo-normals
-            a, b = P[:, (k + 1) % 3] - P[:, k], P[:, (k + 2) % 3] - P[:, k]
-            cos = np.einsum("ij,ij->i", a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
-            np.add.at(vertex_normals, F[:, k], np.arccos(np.clip(cos, -1.0, 1.0))[:, None] * n)
         keys = np.sort(np.stack([F, np.roll(F, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
         unique, facet_edges = np.unique(keys, axis=0, return_inverse=True)
-        facet_edges = facet_edges.reshape(-1, 3).astype(np.int64)
-        edge_normals = np.zeros((len(unique), 3))
-        np.add.at(edge_normals, facet_edges.ravel(), np.repeat(n, 3, axis=0))
-        edge_normals /= np.linalg.norm(edge_normals, axis=1)[:, None]
-    vertex_normals /= np.maximum(np.linalg.norm(vertex_normals, axis=1), 1e-300)[:, None]
-    lo, hi = P.min(axis=1), P.max(axis=1)                       # facet bounding boxes (nf, dim)
-    return FacetSurface(V, F, n, facet_edges, edge_normals, vertex_normals, *_hierarchy(lo, hi))
+        facet_edges, n_edges = facet_edges.reshape(-1, 3).astype(np.int64), len(unique)
+    _, _, children, leaf, order = _hierarchy(P.min(axis=1), P.max(axis=1))
+    nb = len(children)
+    s = FacetSurface(V, F, np.zeros((len(F), dim)), facet_edges, np.zeros((n_edges, dim)), np.zeros_like(V),
+                     np.zeros((nb, dim)), np.zeros((nb, dim)), children, leaf, order)
+    refresh(s, V)
+    return s
+
+
+def refresh(surface: FacetSurface, vertices) -> None:
+    """Move ``surface``'s vertices to ``vertices`` (nv, dim) [mm] (a deformable body's boundary at its
+    current positions) and recompute, in place, what depends on them: facet normals, pseudo-normals and the
+    hierarchy's boxes (refitted bottom up; the tree's facets stay where they are). A facet squeezed to zero
+    length or area gets a zero normal (its neighbours' pseudo-normals decide the sign there)."""
+    s = surface
+    s.vertices[:] = vertices
+    _refresh(s.vertices, s.facets, s.normals, s.facet_edges, s.edge_normals, s.vertex_normals, s.box_lo, s.box_hi,
+             s.children, s.leaf, s.order)
 
 
 def _hierarchy(lo, hi):
@@ -192,8 +201,21 @@ def surface_gaps(surface: FacetSurface, x, d=None, reach: float = math.inf, deri
     d = np.zeros(dim) if d is None else np.asarray(d, dtype=float)[:dim]
     g, N, dN = np.empty(len(x)), np.empty((len(x), dim)), np.empty((len(x), dim, dim))
     _gaps(s.vertices + d, s.facets, s.normals, s.facet_edges, s.edge_normals, s.vertex_normals, s.box_lo + d,
-          s.box_hi + d, s.children, s.leaf, s.order, x, float(reach), g, N, dN)
+          s.box_hi + d, s.children, s.leaf, s.order, x, float(reach), g, N, dN, np.full(len(x), -1, np.int64),
+          np.empty(len(x), np.int64), np.empty((len(x), dim)))
     return (g, N, dN) if derivative else (g, N)
+
+
+def nearest_points(surface: FacetSurface, x, skip, g, N, facet, weights, reach: float = math.inf) -> None:
+    """Node-to-surface contact's search: for the points x (n, dim) [mm], into g (n,) [mm] and N (n, dim) (as
+    :func:`surface_gaps`), facet (n,) the facet that holds the nearest point (-1 beyond ``reach``) and
+    weights (n, dim) of that facet's vertices there (sum 1: the point is weights . vertices[facets[facet]]).
+    skip (n,): a vertex whose facets point i does not see (-1: none; a node of the surface itself)."""
+    s = surface
+    dim = s.vertices.shape[1]
+    _gaps(s.vertices, s.facets, s.normals, s.facet_edges, s.edge_normals, s.vertex_normals, s.box_lo, s.box_hi,
+          s.children, s.leaf, s.order, np.ascontiguousarray(x, dtype=float)[:, :dim], float(reach), g, N,
+          np.empty((len(x), dim, dim)), skip, facet, weights)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -202,18 +224,19 @@ def surface_gaps(surface: FacetSurface, x, d=None, reach: float = math.inf, deri
 
 @_njit
 def _segment_nearest(p, V, f0, f1):
-    """(squared distance, q0, q1, feature) of point p (2,) to the segment of vertices f0, f1 of V;
-    feature 0 inside, 1 at the first vertex, 2 at the second."""
+    """(squared distance, q0, q1, feature, s) of point p (2,) to the segment of vertices f0, f1 of V;
+    feature 0 inside, 1 at the first vertex, 2 at the second; q = (1 - s) V[f0] + s V[f1]."""
     a0, a1 = V[f0, 0], V[f0, 1]
     t0, t1 = V[f1, 0] - a0, V[f1, 1] - a1
-    s = ((p[0] - a0) * t0 + (p[1] - a1) * t1) / (t0 * t0 + t1 * t1)
+    length2 = t0 * t0 + t1 * t1
+    s = ((p[0] - a0) * t0 + (p[1] - a1) * t1) / length2 if length2 > 0.0 else 0.0
     feature = 0
     if s <= 0.0:
         s, feature = 0.0, 1
     elif s >= 1.0:
         s, feature = 1.0, 2
     q0, q1 = a0 + s * t0, a1 + s * t1
-    return (p[0] - q0) ** 2 + (p[1] - q1) ** 2, q0, q1, feature
+    return (p[0] - q0) ** 2 + (p[1] - q1) ** 2, q0, q1, feature, s
 
 
 @_njit
@@ -223,9 +246,9 @@ def _dot3(a0, a1, a2, b0, b1, b2):
 
 @_njit
 def _triangle_nearest(p, V, fa, fb, fc):
-    """(squared distance, q0, q1, q2, feature) of point p (3,) to the triangle of vertices fa, fb, fc of V
-    (Ericson, Real-Time Collision Detection, 5.1.5); feature 0 inside, 1, 2, 3 at vertex a, b, c, 4, 5, 6
-    on edge ab, bc, ca."""
+    """(squared distance, q0, q1, q2, feature, v, w) of point p (3,) to the triangle of vertices fa, fb, fc
+    of V (Ericson, Real-Time Collision Detection, 5.1.5); feature 0 inside, 1, 2, 3 at vertex a, b, c,
+    4, 5, 6 on edge ab, bc, ca; q = a + v (b - a) + w (c - a)."""
     a0, a1, a2 = V[fa, 0], V[fa, 1], V[fa, 2]
     ab0, ab1, ab2 = V[fb, 0] - a0, V[fb, 1] - a1, V[fb, 2] - a2
     ac0, ac1, ac2 = V[fc, 0] - a0, V[fc, 1] - a1, V[fc, 2] - a2
@@ -252,10 +275,10 @@ def _triangle_nearest(p, V, fa, fb, fc):
             w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
             v, f = 1.0 - w, 5
         else:
-            den = 1.0 / (va + vb + vc)
-            v, w, f = vb * den, vc * den, 0
+            den = va + vb + vc
+            v, w, f = (vb / den, vc / den, 0) if den != 0.0 else (0.0, 0.0, 1)
     q0, q1, q2 = a0 + v * ab0 + w * ac0, a1 + v * ab1 + w * ac1, a2 + v * ab2 + w * ac2
-    return (p[0] - q0) ** 2 + (p[1] - q1) ** 2 + (p[2] - q2) ** 2, q0, q1, q2, f
+    return (p[0] - q0) ** 2 + (p[1] - q1) ** 2 + (p[2] - q2) ** 2, q0, q1, q2, f, v, w
 
 
 @_njit
@@ -271,10 +294,82 @@ def _box_distance2(p, lo, hi):
 
 
 @_njit
+def _refresh(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi, children, leaf, order):
+    """Facet normals n (nf, dim), pseudo-normals of edges (3-D) and vertices, boxes (nb, dim) of the surface
+    of vertices V and oriented facets F: see :func:`refresh`. 2-D: the segment's left normal, vertex
+    pseudo-normal the sum of its segments'; 3-D: right-handed about the vertex order, edge pseudo-normal
+    the sum of its two triangles' (normalised), vertex pseudo-normal weighted by each triangle's angle there
+    (Baerentzen and Aanaes)."""
+    dim = V.shape[1]
+    nf = F.shape[0]
+    vertex_normals[:, :] = 0.0
+    edge_normals[:, :] = 0.0
+    for f in range(nf):
+        if dim == 2:
+            t0, t1 = V[F[f, 1], 0] - V[F[f, 0], 0], V[F[f, 1], 1] - V[F[f, 0], 1]
+            size = math.sqrt(t0 * t0 + t1 * t1)
+            n[f, 0], n[f, 1] = (-t1 / size, t0 / size) if size > 0.0 else (0.0, 0.0)
+            for k in range(2):
+                vertex_normals[F[f, k], 0] += n[f, 0]
+                vertex_normals[F[f, k], 1] += n[f, 1]
+            continue
+        a0, a1, a2 = V[F[f, 1], 0] - V[F[f, 0], 0], V[F[f, 1], 1] - V[F[f, 0], 1], V[F[f, 1], 2] - V[F[f, 0], 2]
+        b0, b1, b2 = V[F[f, 2], 0] - V[F[f, 0], 0], V[F[f, 2], 1] - V[F[f, 0], 1], V[F[f, 2], 2] - V[F[f, 0], 2]
+        c0, c1, c2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+        size = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+        if size > 0.0:
+            n[f, 0], n[f, 1], n[f, 2] = c0 / size, c1 / size, c2 / size
+        else:
+            n[f, 0], n[f, 1], n[f, 2] = 0.0, 0.0, 0.0
+        for k in range(3):
+            e = facet_edges[f, k]
+            for j in range(3):
+                edge_normals[e, j] += n[f, j]
+            v, p, q = F[f, k], F[f, (k + 1) % 3], F[f, (k + 2) % 3]
+            p0, p1, p2 = V[p, 0] - V[v, 0], V[p, 1] - V[v, 1], V[p, 2] - V[v, 2]
+            q0, q1, q2 = V[q, 0] - V[v, 0], V[q, 1] - V[v, 1], V[q, 2] - V[v, 2]
+            lp, lq = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2), math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
+            cos = _dot3(p0, p1, p2, q0, q1, q2) / (lp * lq) if lp * lq > 0.0 else 1.0
+            angle = math.acos(min(1.0, max(-1.0, cos)))
+            for j in range(3):
+                vertex_normals[v, j] += angle * n[f, j]
+    for e in range(edge_normals.shape[0]):
+        size = math.sqrt(_dot3(edge_normals[e, 0], edge_normals[e, 1], edge_normals[e, 2], edge_normals[e, 0],
+                               edge_normals[e, 1], edge_normals[e, 2]))
+        if size > 0.0:
+            for j in range(3):
+                edge_normals[e, j] /= size
+    for v in range(V.shape[0]):
+        size = 0.0
+        for j in range(dim):
+            size += vertex_normals[v, j] ** 2
+        size = max(math.sqrt(size), 1e-300)
+        for j in range(dim):
+            vertex_normals[v, j] /= size
+    for b in range(box_lo.shape[0] - 1, -1, -1):     # children come after their parent: bottom up
+        for j in range(dim):
+            box_lo[b, j], box_hi[b, j] = math.inf, -math.inf
+        if children[b, 0] < 0:
+            for m in range(leaf[b, 0], leaf[b, 1]):
+                for k in range(dim):
+                    for j in range(dim):
+                        x = V[F[order[m], k], j]
+                        box_lo[b, j] = min(box_lo[b, j], x)
+                        box_hi[b, j] = max(box_hi[b, j], x)
+        else:
+            for c in (children[b, 0], children[b, 1]):
+                for j in range(dim):
+                    box_lo[b, j] = min(box_lo[b, j], box_lo[c, j])
+                    box_hi[b, j] = max(box_hi[b, j], box_hi[c, j])
+
+
+@_njit
 def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi, children, leaf, order, x, reach, g, N,
-          dN):
+          dN, skip, facet_of, weights):
     """g (n,), N (n, dim), dN (n, dim, dim) of the points x (n, dim) to the surface of vertices V and boxes
-    (already translated); see :func:`surface_gaps`."""
+    (already translated); see :func:`surface_gaps`. Also the nearest facet facet_of (n,) (-1: none within
+    reach) and the weights (n, dim) of its vertices at the nearest point; facets with the vertex skip[i]
+    (-1: none) are not searched for point i (a body's own node)."""
     dim = V.shape[1]
     stack = np.empty(2 * len(box_lo) + 2, dtype=np.int64)
     reach2 = reach * reach if reach < math.inf else math.inf
@@ -282,6 +377,7 @@ def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi, ch
         p = x[i]
         best, facet, feature = reach2, -1, 0
         q0 = q1 = q2 = 0.0
+        wv = ww = 0.0
         top = 0
         stack[0] = 0
         while top >= 0:
@@ -293,13 +389,16 @@ def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi, ch
             if c0 < 0:                                  # a leaf: its facets
                 for m in range(leaf[b, 0], leaf[b, 1]):
                     f = order[m]
+                    if skip[i] >= 0 and (F[f, 0] == skip[i] or F[f, 1] == skip[i]
+                                         or (dim == 3 and F[f, dim - 1] == skip[i])):
+                        continue
                     if dim == 2:
-                        dd, a0, a1, ff = _segment_nearest(p, V, F[f, 0], F[f, 1])
-                        a2 = 0.0
+                        dd, a0, a1, ff, sv = _segment_nearest(p, V, F[f, 0], F[f, 1])
+                        a2 = sw = 0.0
                     else:
-                        dd, a0, a1, a2, ff = _triangle_nearest(p, V, F[f, 0], F[f, 1], F[f, 2])
+                        dd, a0, a1, a2, ff, sv, sw = _triangle_nearest(p, V, F[f, 0], F[f, 1], F[f, 2])
                     if dd < best:
-                        best, facet, feature, q0, q1, q2 = dd, f, ff, a0, a1, a2
+                        best, facet, feature, q0, q1, q2, wv, ww = dd, f, ff, a0, a1, a2, sv, sw
                 continue
             d0, d1 = _box_distance2(p, box_lo[c0], box_hi[c0]), _box_distance2(p, box_lo[c1], box_hi[c1])
             near, far = (c0, c1) if d0 <= d1 else (c1, c0)
@@ -308,10 +407,17 @@ def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi, ch
             top += 2
         dist = math.sqrt(best)
         dN[i, :, :] = 0.0
+        facet_of[i] = facet
         if facet < 0 or dist > reach:
             g[i] = reach
             N[i, :] = 0.0
+            weights[i, :] = 0.0
+            facet_of[i] = -1
             continue
+        if dim == 2:
+            weights[i, 0], weights[i, 1] = 1.0 - wv, wv
+        else:
+            weights[i, 0], weights[i, 1], weights[i, 2] = 1.0 - wv - ww, wv, ww
         if feature == 0:
             normal = n[facet]
         elif feature <= dim:

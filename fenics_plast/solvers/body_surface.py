@@ -1,0 +1,212 @@
+"""A boundary facet group of the body as the master surface of node-to-surface contact (explicit solver).
+
+Two bodies are two regions of one mesh; a contact pair ``[contact.<name>]`` with ``master = "<group>"``
+presses the nodes of its ``group`` (the slaves) against the facets of the master group at their current
+positions, and every slave force has its reaction on the nodes of the master facet that holds the slave's
+nearest point, weighted by that point's coordinates in the facet (the force a node-to-surface element
+exerts on both sides: Wriggers, Computational Contact Mechanics, 2006, ch. 8).
+
+:class:`BodySurface` holds the group's facets as one :class:`~fenics_plast.solvers.surface_gaps.FacetSurface`
+on every rank (segments in 2-D; a hexahedron's quadrilateral facets split into two triangles each in 3-D),
+oriented to point out of their cells. Under MPI each rank owns some of its vertices: :meth:`BodySurface.move`
+sums the owned rows of every rank into the whole surface's positions and displacement increments (one
+Allreduce of (nv, 2 dim) numbers a step; the surface is gathered whole on every rank, which suits forming
+and impact interfaces of up to some 10^5 facets) and refreshes its normals and search boxes;
+:meth:`BodySurface.add_reactions` sums the ranks' reactions the same way and adds the owned rows to the
+contact force vector. Units mm, N.
+"""
+from __future__ import annotations
+
+import numba
+import numpy as np
+from mpi4py import MPI
+
+from fenics_plast import dolfinx_compat as dc
+from fenics_plast.solvers.surface_gaps import nearest_points, oriented_surface, refresh
+from fenics_plast.solvers.tool_gaps import FLAGS
+
+_njit = numba.njit(cache=True, **FLAGS)
+
+
+def _boundary_facets(V, facet_tags, tag):
+    """(facets (nf, dim) as global node (dof block) indices, cell centroids (nf, dim) [mm]) of this rank's
+    owned facets tagged ``tag``, each as its cell sees it: 2 nodes (2-D) or the 4 of a quadrilateral in
+    cyclic order (3-D)."""
+    mesh = V.mesh
+    tdim, fdim = mesh.topology.dim, mesh.topology.dim - 1
+    gdim = V.dofmap.index_map_bs
+    mesh.topology.create_connectivity(fdim, tdim)
+    f2c = mesh.topology.connectivity(fdim, tdim)
+    facets = np.asarray(facet_tags.find(tag), dtype=np.int32)
+    facets = facets[facets < mesh.topology.index_map(fdim).size_local]
+    geometry = dc.geometry_dofs(mesh)                       # cell -> geometry nodes, the order of V's cell dofs
+    cell_dofs = dc.cell_dofs(V)
+    nodes = dc.entity_nodes(mesh, fdim, facets) if len(facets) else np.zeros((0, 2 ** fdim), dtype=np.int32)
+    out = np.zeros((len(facets), nodes.shape[1]), dtype=np.int64)
+    centroids = np.zeros((len(facets), gdim))
+    for i, f in enumerate(facets):
+        c = f2c.links(f)[0]
+        column = {int(g): k for k, g in enumerate(geometry[c])}
+        out[i] = cell_dofs[c][[column[int(g)] for g in nodes[i]]]
+        centroids[i] = mesh.geometry.x[geometry[c], :gdim].mean(axis=0)
+    if fdim == 2:
+        out = out[:, [0, 1, 3, 2]]                              # tensor-product order -> cyclic
+    imap = V.dofmap.index_map
+    return imap.local_to_global(out.ravel().astype(np.int32)).reshape(out.shape).astype(np.int64), centroids
+
+
+class BodySurface:
+    """The facets tagged ``tag`` of the explicit solver's body as a master surface (see the module
+    docstring); collective construction. ``vertex_nodes`` (nv,) the global node of each surface vertex,
+    ``surface`` the :class:`~fenics_plast.solvers.surface_gaps.FacetSurface` at the last :meth:`move`."""
+
+    has_ufl_gap = False
+    path = None                         # the solvers' "tool" interface: it does not move along a path
+
+    def __init__(self, solver, facet_tags, tag, name=None):
+        V, comm = solver.V, solver.comm
+        self.comm, self.tag, self.name = comm, tag, name or f"facets {tag}"
+        bs = self.dim = solver.bs
+        local, centroids = _boundary_facets(V, facet_tags, tag)
+        imap = V.dofmap.index_map
+        nodes_local = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+        owned_global = imap.local_to_global(nodes_local[: imap.size_local]).astype(np.int64)
+        X = solver.reference_positions
+        # every rank gets every facet (global nodes) and the reference position of every vertex
+        pieces = comm.allgather((local, centroids))
+        quads = np.concatenate([p[0] for p in pieces])
+        cells = np.concatenate([p[1] for p in pieces])
+        if len(quads) == 0:
+            raise ValueError(f"contact master group {self.name!r} has no facets")
+        self.vertex_nodes = np.unique(quads)
+        facets = np.searchsorted(self.vertex_nodes, quads)
+        # the rows this rank owns, their local dofs
+        mine = np.isin(owned_global, self.vertex_nodes)
+        self.rows = np.searchsorted(self.vertex_nodes, owned_global[mine])
+        local_nodes = nodes_local[: imap.size_local][mine]
+        self.dofs = np.ascontiguousarray(np.stack([local_nodes * bs + j for j in range(bs)], axis=1), dtype=np.int64)
+        X0 = np.zeros((len(self.vertex_nodes), bs))
+        X0[self.rows] = X[local_nodes, :bs]
+        X0 = self._sum(X0)
+        self.X = X0
+        facets = self._outward(facets, X0, cells)
+        self.surface = oriented_surface(X0, facets)
+        self.increment = np.zeros_like(X0)          # displacement of each vertex over the last step [mm]
+        self._moved = np.zeros((len(X0), 2 * bs))
+
+    def _sum(self, a):
+        if self.comm.size > 1:
+            self.comm.Allreduce(MPI.IN_PLACE, a, op=MPI.SUM)
+        return a
+
+    @staticmethod
+    def _outward(facets, X, centroids):
+        """Segments (2-D) turned so that their left normal points out of their cell; quadrilaterals (3-D)
+        turned so that their right-handed normal does, then split in two triangles."""
+        P = X[facets]
+        if facets.shape[1] == 2:
+            t = P[:, 1] - P[:, 0]
+            n = np.stack([-t[:, 1], t[:, 0]], axis=1)
+        else:
+            n = np.cross(P[:, 1] - P[:, 0], P[:, 3] - P[:, 0])
+        inward = np.einsum("ij,ij->i", n, P.mean(axis=1) - centroids) < 0.0
+        facets = facets.copy()
+        facets[inward] = facets[inward, ::-1]
+        if facets.shape[1] == 4:
+            facets = np.concatenate([facets[:, [0, 1, 2]], facets[:, [0, 2, 3]]])
+        return np.ascontiguousarray(facets)
+
+    def skip_of(self, global_nodes):
+        """(n,) the surface vertex of each of the global nodes (-1: not on this surface): a node does not
+        touch its own facets."""
+        global_nodes = np.asarray(global_nodes, dtype=np.int64)
+        at = np.minimum(np.searchsorted(self.vertex_nodes, global_nodes), len(self.vertex_nodes) - 1)
+        return np.where(self.vertex_nodes[at] == global_nodes, at, -1).astype(np.int64)
+
+    def move(self, u, du):
+        """The surface at the positions X + u and its vertices' increments du over the step (u the local
+        displacement array, du the owned increments [mm]); collective."""
+        m, bs = self._moved, self.dim
+        _owned_rows(self.X, self.rows, self.dofs, u, du, m)
+        self._sum(m)
+        refresh(self.surface, m[:, :bs])
+        self.increment[:] = m[:, bs:]
+
+    def nearest(self, x, skip, g, N, facet, weights):
+        """Gaps g (n,) [mm], normals N (n, dim) pointing out of the master body, the facet (n,) and the
+        weights (n, dim) of the nearest points of the slave positions x (n, dim) [mm]
+        (:func:`~fenics_plast.solvers.surface_gaps.nearest_points`); the master point's increment over the
+        step (n, dim) [mm] is returned."""
+        nearest_points(self.surface, x, skip, g, N, facet, weights)
+        dd = np.empty_like(weights)
+        _at_points(self.surface.facets, facet, weights, self.increment, dd)
+        return dd
+
+    def add_reactions(self, facet, weights, fc, fcon):
+        """fcon (owned dofs) += the reactions -w_a f_c of the slave forces fc (n, dim) [N] at the vertices of
+        their facets (n,) with weights (n, dim); collective."""
+        R = np.zeros_like(self.X)
+        _spread(self.surface.facets, facet, weights, fc, R)
+        self._sum(R)
+        _add_rows(R, self.rows, self.dofs, fcon)
+
+    def gap_np(self, x, t=None):
+        """(g (n,), N (n, dim)) of positions x (n, dim) [mm] to the surface as last moved."""
+        n = len(x)
+        g, N = np.empty(n), np.empty((n, self.dim))
+        nearest_points(self.surface, x, np.full(n, -1, np.int64), g, N, np.empty(n, np.int64),
+                       np.empty((n, self.dim)))
+        return g, N
+
+    def translation(self, t, use_ufl=False):
+        return np.zeros(self.dim)
+
+
+# ----------------------------------------------------------------------------------------------
+# compiled: the per-step work on the surface's arrays
+
+
+@_njit
+def _owned_rows(X, rows, dofs, u, du, out):
+    """out (nv, 2 dim) = 0 but this rank's rows: positions X + u [mm], then the increments du [mm]."""
+    out[:, :] = 0.0
+    dim = X.shape[1]
+    for i in range(len(rows)):
+        r = rows[i]
+        for j in range(dim):
+            out[r, j] = X[r, j] + u[dofs[i, j]]
+            out[r, dim + j] = du[dofs[i, j]]
+
+
+@_njit
+def _at_points(facets, facet, weights, values, out):
+    """out (n, dim) = sum_a weights[i, a] values[facets[facet[i], a]] (0 where facet[i] < 0)."""
+    for i in range(len(facet)):
+        for j in range(out.shape[1]):
+            out[i, j] = 0.0
+        f = facet[i]
+        if f < 0:
+            continue
+        for a in range(facets.shape[1]):
+            for j in range(out.shape[1]):
+                out[i, j] += weights[i, a] * values[facets[f, a], j]
+
+
+@_njit
+def _spread(facets, facet, weights, fc, R):
+    """R[facets[facet[i], a]] -= weights[i, a] fc[i] (the reactions of the forces fc (n, dim))."""
+    for i in range(len(facet)):
+        f = facet[i]
+        if f < 0:
+            continue
+        for a in range(facets.shape[1]):
+            for j in range(fc.shape[1]):
+                R[facets[f, a], j] -= weights[i, a] * fc[i, j]
+
+
+@_njit
+def _add_rows(R, rows, dofs, fcon):
+    """fcon[dofs[i, j]] += R[rows[i], j] (this rank's rows)."""
+    for i in range(len(rows)):
+        for j in range(R.shape[1]):
+            fcon[dofs[i, j]] += R[rows[i], j]
