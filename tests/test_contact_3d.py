@@ -192,7 +192,8 @@ def _kernel(u, du, X, tools, kinds, params, gN, laws, trans, mu=0.3, steps=1):
     for _ in range(steps):
         c = ck.ContactArrays(X, dofs, cpair, np.full(n, 0.7), np.asarray(kinds, np.int64),
                              np.asarray(params, dtype=float), np.full(npair, 1e3), np.full(npair, 2e3),
-                             np.full(npair, mu), np.asarray(laws, np.int64), gN, *hist, fc, acc, pen)
+                             np.full(npair, mu), np.asarray(laws, np.int64), gN, np.zeros((n, d)), *hist, fc,
+                             acc, pen)
         ck.contact_forces(u, du, 1e-3, c, trans[0], trans[1], fcon)
     return fcon, hist, fc, acc, pen
 
@@ -262,9 +263,10 @@ def test_3d_kernel_in_the_xy_plane_equals_the_2d_kernel():
             r = np.random.default_rng(7)
             dofs = np.arange(d * n, dtype=np.int64).reshape(n, d)
             cpair = (np.arange(n) % 2).astype(np.int64)
-            # N_hist starts as a unit vector (a run's first call, at t0 with du = 0, sets it so)
-            st = [np.zeros((n, 1 + d)), np.zeros((n, d)), np.tile(np.eye(d)[1], (n, 1)), np.zeros(n), np.zeros(n),
-                  np.zeros(n), np.zeros((n, d)), np.zeros((2, 2 + d)), np.zeros(2)]
+            # gN, dd_node, t_hist, N_hist, p_hist, t_scal, slip, fc, acc, pen; N_hist starts as a unit vector
+            # (a run's first call, at t0 with du = 0, sets it so)
+            st = [np.zeros((n, 1 + d)), np.zeros((n, d)), np.zeros((n, d)), np.tile(np.eye(d)[1], (n, 1)),
+                  np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, d)), np.zeros((2, 2 + d)), np.zeros(2)]
             u = np.zeros(d * n)
             rows = []
             for step in range(30):
@@ -280,8 +282,8 @@ def test_3d_kernel_in_the_xy_plane_equals_the_2d_kernel():
                                      np.array([2e3, 1e3]), np.array([0.3, 0.2]), np.array([law, law], np.int64), *st)
                 ck.contact_forces(u, du, 1e-3, c, tr[0], tr[1], fcon)
                 ix = np.arange(n)[:, None] * d + np.arange(2)
-                rows.append(np.concatenate([fcon[ix].ravel(), st[1][:, :2].ravel(), st[6][:, :2].ravel(),
-                                            st[3], np.abs(st[4]), st[5], st[7][:, :4].ravel(), st[8]]))
+                rows.append(np.concatenate([fcon[ix].ravel(), st[2][:, :2].ravel(), st[7][:, :2].ravel(),
+                                            st[4], np.abs(st[5]), st[6], st[8][:, :4].ravel(), st[9]]))
                 if d == 3:
                     assert np.abs(fcon.reshape(-1, 3)[:, 2]).max() == 0.0
             out.append(np.array(rows))

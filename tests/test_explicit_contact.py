@@ -101,7 +101,8 @@ def test_compiled_gaps_match_gap_np():
             hist = [np.full((n, 2), 0.3), np.tile([0.0, 1.0], (n, 1)), np.full(n, 50.0), np.zeros(n), np.zeros(n)]
             fc, acc, pen, fcon = np.zeros((n, 2)), np.zeros((1, 4)), np.zeros(1), np.zeros(2 * n)
             c = ck.ContactArrays(X, dofs, np.zeros(n, np.int64), np.full(n, 0.7), np.array([k]), np.array([tool.params]),
-                                 np.array([1e3]), np.array([2e3]), np.array([0.3]), np.array([ck.COULOMB]), gN, *hist,
+                                 np.array([1e3]), np.array([2e3]), np.array([0.3]), np.array([ck.COULOMB]), gN,
+                                 np.zeros((n, 2)), *hist,
                                  fc, acc, pen)
             ck.contact_forces(u, du, 1e-3, c, tr[0], tr[1], fcon)
             out.append((fcon.copy(), acc.copy(), pen.copy()))
