@@ -176,6 +176,13 @@ def entity_nodes(mesh, dim: int, entities) -> np.ndarray:
     return entities_to_geometry(cpp, dim, np.asarray(entities, dtype=np.int32), False)
 
 
+def bc_dofs(bc) -> np.ndarray:
+    """The local dofs (unrolled, owned and ghost) of the space a Dirichlet condition ``bc`` was made on (its
+    parent space's for a condition on a subspace) that it holds."""
+    cpp = bc if hasattr(bc, "dof_indices") else bc._cpp_object
+    return np.asarray(cpp.dof_indices()[0])
+
+
 # -- vectors and assembly -----------------------------------------------------------------------------
 def petsc_vec(function):
     """The PETSc Vec that shares ``function``'s values (owned and ghost)."""

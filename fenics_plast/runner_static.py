@@ -111,13 +111,20 @@ def reaction_dofs(problem, s, ft, groups, constrained):
 def add_contact(s, ft, specs):
     """The contact pairs ``specs`` (name -> :class:`fenics_plast.build.ContactPair`) as penalty terms of
     the residual: (the contact set or None when there are none, {name: pair})."""
-    if not specs:
-        return None, {}
     from fenics_plast.contact import PenaltyContact
-    c = PenaltyContact(s)            # every pair carries its own penalty, friction and law
-    pairs = {name: c.add_pair(p.tool, ft, p.tag, **p.options()) for name, p in specs.items()}
-    c.attach()
-    return c, pairs
+    from fenics_plast.solvers.static_surface_contact import add_surface_contact
+    pairs, c = {}, None
+    for name, p in specs.items():
+        if p.master_tag is not None:        # two facet groups of the body: terms outside the forms
+            pairs[name] = add_surface_contact(s, ft, p.tag, p.master_tag, p.penalty, two_pass=p.two_pass,
+                                              name=name)
+            continue
+        if c is None:
+            c = PenaltyContact(s)            # every pair carries its own penalty, friction and law
+        pairs[name] = c.add_pair(p.tool, ft, p.tag, **p.options())
+    if c is not None:
+        c.attach()
+    return c, {name: pairs[name] for name in specs}
 
 
 #: a penalty this many times above or below its pair's default is named as a likely cause of a failure
@@ -269,8 +276,8 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
                    linesearch_retries=len(s.linesearch_retries), element=problem.mesh.element,
                    final_time=s.lam_converged, jacobians=s.jacobians, solve_time_s=time.perf_counter() - t_solve,
                    solver_times_s={k: round(v, 4) for k, v in s.times.items()})
-        if contact is not None:
-            res["max_penetration_mm"] = contact.max_penetration()
+        if pairs:
+            res["max_penetration_mm"] = max(p.max_penetration() for p in pairs.values())
             warnings = []
             for n, p in pairs.items():
                 res[f"penalty_{n}_N_mm3"] = p.penalty

@@ -325,14 +325,14 @@ SCHEMA: dict[str, Table] = {
             "tool": Key("str", OPTIONAL, "Name of a [tools.<name>] table: the master surface is that rigid "
                         "tool. Exactly one of tool and master."),
             "master": Key("str", OPTIONAL, "Gmsh physical curve (3-D: surface) name of a facet group of the "
-                          "body (explicit): the master surface is that part of the body's boundary at its "
-                          "current positions; two bodies are two regions of one mesh. Each force on a node of "
-                          "`group` has its reaction on the nodes of the master facet it presses on. Exactly one "
-                          "of tool and master; not `group` itself (self-contact is not available yet).",
-                          when_analysis=EXPLICIT),
+                          "body: the master surface is that part of the body's boundary at its current "
+                          "positions; two bodies are two regions of one mesh. Each force on a node of `group` "
+                          "has its reaction on the nodes of the master facet it presses on. Exactly one of tool "
+                          "and master; not `group` itself (self-contact is not available yet); static analyses: "
+                          "frictionless."),
             "two_pass": Key("bool", OPTIONAL, "With master: also the master group's nodes against the group's "
                             "facets, the same law and penalty (symmetric: neither side passes through the "
-                            "other); absent = true; false: the group's nodes only.", when_analysis=EXPLICIT),
+                            "other); absent = true; false: the group's nodes only."),
             "group": Key("str", REQUIRED, "Gmsh physical curve (3-D: surface) name of the body's candidate "
                          "facets (the slave nodes)."),
             "friction": Key("float", 0.0, "Coulomb coefficient mu (0: frictionless, no friction term).", "",

@@ -54,23 +54,41 @@ def _boundary_facets(V, facet_tags, tag):
     return imap.local_to_global(out.ravel().astype(np.int32)).reshape(out.shape).astype(np.int64), centroids
 
 
+def tributary_areas(V, weight, facet_tags, tag):
+    """int N_i w dA0 [mm^2] of every owned node i of the CG1 vector space V, per unrolled dof ((n_own,)),
+    over the facets tagged ``tag``; w the UFL weight (2 pi R in axisymmetry, 1 otherwise). Degree 4: exact
+    for N_i times the linear weight (collective)."""
+    import ufl
+    from dolfinx import fem
+    from dolfinx.fem import petsc as fem_petsc
+    from petsc4py import PETSc
+    bs = V.dofmap.index_map_bs
+    ds = ufl.Measure("ds", domain=V.mesh, subdomain_data=facet_tags, metadata={"quadrature_degree": 4})(tag)
+    ones = fem.Constant(V.mesh, PETSc.ScalarType((1.0,) * bs))
+    b = fem_petsc.assemble_vector(fem.form(ufl.inner(ones, ufl.TestFunction(V)) * weight * ds))
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    areas = b.array[: V.dofmap.index_map.size_local * bs].copy()
+    b.destroy()
+    return areas
+
+
 class BodySurface:
-    """The facets tagged ``tag`` of the explicit solver's body as a master surface (see the module
-    docstring); collective construction. ``vertex_nodes`` (nv,) the global node of each surface vertex,
-    ``surface`` the :class:`~fenics_plast.solvers.surface_gaps.FacetSurface` at the last :meth:`move`."""
+    """The facets tagged ``tag`` of a body as a master surface (see the module docstring); V the body's CG1
+    vector space (its dof blocks are the nodes), X (local nodes, gdim) their reference positions [mm];
+    collective construction. ``vertex_nodes`` (nv,) the global node of each surface vertex, ``surface`` the
+    :class:`~fenics_plast.solvers.surface_gaps.FacetSurface` at the last :meth:`move`."""
 
     has_ufl_gap = False
     path = None                         # the solvers' "tool" interface: it does not move along a path
 
-    def __init__(self, solver, facet_tags, tag, name=None):
-        V, comm = solver.V, solver.comm
+    def __init__(self, V, X, facet_tags, tag, name=None):
+        comm = V.mesh.comm
         self.comm, self.tag, self.name = comm, tag, name or f"facets {tag}"
-        bs = self.dim = solver.bs
+        bs = self.dim = V.dofmap.index_map_bs
         local, centroids = _boundary_facets(V, facet_tags, tag)
         imap = V.dofmap.index_map
         nodes_local = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
         owned_global = imap.local_to_global(nodes_local[: imap.size_local]).astype(np.int64)
-        X = solver.reference_positions
         # every rank gets every facet (global nodes) and the reference position of every vertex
         pieces = comm.allgather((local, centroids))
         quads = np.concatenate([p[0] for p in pieces])
@@ -115,6 +133,15 @@ class BodySurface:
             facets = np.concatenate([facets[:, [0, 1, 2]], facets[:, [0, 2, 3]]])
         return np.ascontiguousarray(facets)
 
+    def global_rows(self, values):
+        """(nv, dim) of this rank's rows of ``values`` (rows of the surface it owns, e.g. global equation
+        numbers), the other ranks' summed in (collective)."""
+        out = np.zeros((len(self.vertex_nodes), self.dim), dtype=values.dtype)
+        out[self.rows] = values
+        if self.comm.size > 1:
+            self.comm.Allreduce(MPI.IN_PLACE, out, op=MPI.SUM)
+        return out
+
     def skip_of(self, global_nodes):
         """(n,) the surface vertex of each of the global nodes (-1: not on this surface): a node does not
         touch its own facets."""
@@ -122,11 +149,11 @@ class BodySurface:
         at = np.minimum(np.searchsorted(self.vertex_nodes, global_nodes), len(self.vertex_nodes) - 1)
         return np.where(self.vertex_nodes[at] == global_nodes, at, -1).astype(np.int64)
 
-    def move(self, u, du):
+    def move(self, u, du=None):
         """The surface at the positions X + u and its vertices' increments du over the step (u the local
-        displacement array, du the owned increments [mm]); collective."""
+        displacement array, du the owned increments [mm]; None: not wanted); collective."""
         m, bs = self._moved, self.dim
-        _owned_rows(self.X, self.rows, self.dofs, u, du, m)
+        _owned_rows(self.X, self.rows, self.dofs, u, du if du is not None else u, m)
         self._sum(m)
         refresh(self.surface, m[:, :bs])
         self.increment[:] = m[:, bs:]

@@ -47,16 +47,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import ufl
 from dolfinx import fem
-from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
-from petsc4py import PETSc
 
 from fenics_plast.contact import LAWS
 from fenics_plast.tools import Tool
 from fenics_plast.solvers import contact_kernels as ck
-from fenics_plast.solvers.body_surface import BodySurface
+from fenics_plast.solvers.body_surface import BodySurface, tributary_areas
 
 _LAW_CODE = {"coulomb": ck.COULOMB, "quasi-coulomb": ck.QUASI_COULOMB}
 
@@ -76,19 +73,6 @@ def _tool_kind(tool):
     if isinstance(tool, BodySurface):
         return ck.BODY, np.zeros(0)
     return ck.GENERIC, np.zeros(0)
-
-
-def _tributary_areas(solver, facet_tags, tag):
-    """int N_i w dA0 [mm^2] of every owned node i (x dof index, (n_own,) unrolled) over the facets tagged
-    ``tag`` (degree 4: exact for N_i times the linear weight; collective)."""
-    s = solver
-    ds = ufl.Measure("ds", domain=s.mesh, subdomain_data=facet_tags, metadata={"quadrature_degree": 4})(tag)
-    ones = fem.Constant(s.mesh, PETSc.ScalarType((1.0,) * s.bs))
-    b = fem_petsc.assemble_vector(fem.form(ufl.inner(ones, ufl.TestFunction(s.V)) * s.kin.weight * ds))
-    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    areas = b.array[: s.n_own].copy()
-    b.destroy()
-    return areas
 
 
 class ExplicitContactPair:
@@ -130,7 +114,7 @@ class ExplicitContactPair:
         nodes = xdofs // bs
         self.dofs = np.ascontiguousarray(np.stack([nodes * bs + j for j in range(bs)], axis=1))   # (nc, dim)
         self.X = np.ascontiguousarray(s.reference_positions[nodes, :bs])                           # (nc, dim) [mm]
-        areas = _tributary_areas(s, facet_tags, tag)
+        areas = tributary_areas(s.V, s.kin.weight, facet_tags, tag)
         self.area = areas[self.dofs[:, 0]].copy()                                             # (nc,) [mm^2]
         total = self.comm.allreduce(float(self.area.sum()), op=MPI.SUM)
         if total <= 0.0:
@@ -140,7 +124,7 @@ class ExplicitContactPair:
             # the master nodes' springs (their tributary areas on the master group) enter the stable step
             imap = V.dofmap.index_map
             self.skip = tool.skip_of(imap.local_to_global(nodes.astype(np.int32)))
-            self.master_area = _tributary_areas(s, facet_tags, tool.tag)[tool.dofs[:, 0]]
+            self.master_area = tributary_areas(s.V, s.kin.weight, facet_tags, tool.tag)[tool.dofs[:, 0]]
         else:
             self.skip = np.full(len(nodes), -1, dtype=np.int64)
         # stable step of the node on its penalty spring
@@ -291,7 +275,7 @@ class ContactSet:
         """The :class:`~fenics_plast.solvers.body_surface.BodySurface` of the facets tagged ``tag`` (one per
         group, shared by the pairs that press on it; collective on first use)."""
         if tag not in self._surfaces:
-            self._surfaces[tag] = BodySurface(self.solver, facet_tags, tag)
+            self._surfaces[tag] = BodySurface(self.solver.V, self.solver.reference_positions, facet_tags, tag)
         return self._surfaces[tag]
 
     def add(self, tool, facet_tags, tag, **kw):

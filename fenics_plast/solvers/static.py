@@ -123,6 +123,10 @@ class StaticSolver:
         # called with no argument whenever the state w is set (Newton iterates, line-search trials): what
         # depends on it outside UFL (a meshed tool's nodal gaps: ContactPair._nodal_gap)
         self.state_hooks = []
+        # terms assembled outside the forms (contact between facet groups of the body:
+        # static_surface_contact.SurfaceContactTerm): residual(b) adds to the residual vector, jacobian(A) to
+        # the Jacobian, both with global indices, at the state of the last residual
+        self.terms = []
         self._bcs = []          # (DirichletBC, g Function, g0 array): g = lam * g0
         self._prescribed = []   # (DirichletBC, g Function, X (3, n), value(X, t)): g = value(X, lam)
         self.options = dict(rtol=rtol, atol=atol, max_iterations=max_iterations,
@@ -244,6 +248,8 @@ class StaticSolver:
         self.b = fpetsc.create_vector(self.R_form)
         self.r_int = fpetsc.create_vector(self.Rint_form)
         self.A = fpetsc.create_matrix(self.J_form)
+        if self.terms:          # their entries couple nodes the forms do not: the pattern grows
+            self.A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
         self.x = dc.petsc_vec(self.w).duplicate()   # SNES solution, distinct from w's own Vec
         self.prefix = f"fp_static_{next(_prefix_counter)}_"
         opts = PETSc.Options()
@@ -406,6 +412,10 @@ class StaticSolver:
         if not self._bc_values_reached(x):   # else the lifting A (g - x) is zero: skipped, same vector
             dc.apply_lifting(b, [self.J_form], bcs=[self.bcs], x0=[x], alpha=-1.0)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        if self.terms:
+            for term in self.terms:
+                term.residual(b)
+            b.assemble()
         fpetsc.set_bc(b, self.bcs, x, -1.0)
         self._bad_update = bad      # of the latest evaluation (the state SNES ends on)
         if bad:
@@ -436,6 +446,10 @@ class StaticSolver:
         t0 = time.perf_counter()
         A.zeroEntries()
         fpetsc.assemble_matrix(A, self.J_form, bcs=self.bcs)
+        if self.terms:
+            A.assemble(PETSc.Mat.AssemblyType.FLUSH)
+            for term in self.terms:
+                term.jacobian(A)
         A.assemble()
         dt = time.perf_counter() - t0
         self.times["jacobian_assembly"] += dt

@@ -1,0 +1,301 @@
+"""Frictionless penalty contact between two facet groups of the body in the static solver, node to surface.
+
+The static counterpart of the explicit solver's master surfaces of the body
+(:mod:`fenics_plast.solvers.body_surface`): each owned node s of the slave group finds the master facet
+nearest to it at the current Newton state (the same search, :func:`~fenics_plast.solvers.surface_gaps.nearest_points`),
+and that node-to-facet element contributes the forces
+
+    f_s = A_s p N,  f_a = -w_a f_s  (a: the facet's vertices, w_a the nearest point's weights),
+    p = eps <-g>,   g = (x_s - q) . n_f inside the facet (n_f its unit normal, out of the master body),
+                    g = sign |x_s - q|, N = (x_s - q) / g at its edges and corners,
+
+with A_s the slave node's tributary area int N_s w dA0 [mm^2] (w = 2 pi R in axisymmetry), to the residual
+(R -= f) and their derivative to the Jacobian (K = -df/dx). The element's force is a closed-form function
+of its (1 + vertices) x dim positions; K is its central difference (step 1e-7 of the facet's size: an error
+of ~1e-10 relative, so Newton stays quadratic to the tolerances used; ``tests/test_static_body_contact.py``
+measures the rates), computed with the facet held fixed, as the consistent linearisation of
+node-to-segment contact does (Wriggers, Computational Contact Mechanics, 2006, sec. 9.1).
+
+Rows and columns of constrained dofs (Dirichlet conditions) take no entries; the entries couple nodes of
+the two groups that the forms' sparsity does not hold, so the solver's matrix accepts new nonzeros (MUMPS
+analyses the pattern again when it grows). Units mm, N, MPa.
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from fenics_plast import dolfinx_compat as dc
+from fenics_plast.solvers.body_surface import BodySurface, tributary_areas
+from fenics_plast.solvers.surface_gaps import _segment_nearest, _triangle_nearest, nearest_points
+from fenics_plast.solvers.tool_gaps import FLAGS
+
+_njit = numba.njit(cache=True, **FLAGS)
+
+#: central-difference step of the element tangent, relative to the facet's longest edge
+FD_STEP = 1e-7
+
+
+class SurfaceContactTerm:
+    """The nodes of the facets tagged ``tag`` pressed against ``surface`` (a
+    :class:`~fenics_plast.solvers.body_surface.BodySurface` of the same body, on the solver's displacement
+    space) with the normal penalty ``penalty`` [N/mm^3]: a term of :class:`~fenics_plast.solvers.static.StaticSolver`
+    (``solver.terms``: :meth:`residual` and :meth:`jacobian`). Collective construction and calls."""
+
+    def __init__(self, solver, facet_tags, tag, surface, penalty, name=None):
+        if not penalty > 0:
+            raise ValueError(f"contact penalty must be > 0, got {penalty!r}")
+        from dolfinx import fem
+        s = self.solver = solver
+        self.surface, self.penalty, self.name, self.tag = surface, float(penalty), name or "contact", tag
+        self.comm = s.comm
+        Vc, vmap = s.displacement_space()
+        d = self.dim = Vc.dofmap.index_map_bs
+        self.vmap = vmap                                        # Vc unrolled dof -> w's local dof
+        n_own = Vc.dofmap.index_map.size_local
+        blocks = fem.locate_dofs_topological(Vc, s.mesh.topology.dim - 1, facet_tags.find(tag))
+        blocks = np.asarray(blocks[blocks < n_own], dtype=np.int64)
+        self.dofs = np.ascontiguousarray(blocks[:, None] * d + np.arange(d), dtype=np.int64)    # (n, dim) Vc
+        self.X = np.ascontiguousarray(Vc.tabulate_dof_coordinates()[blocks, :d])               # (n, dim) [mm]
+        self.area = tributary_areas(Vc, s.kin.weight, facet_tags, tag)[self.dofs[:, 0]]      # (n,) [mm^2]
+        if self.comm.allreduce(float(self.area.sum()), op=MPI.SUM) <= 0.0:
+            raise ValueError(f"contact pair {self.name!r}: facet group {tag} has no facets (zero area)")
+        imap = Vc.dofmap.index_map
+        self.skip = surface.skip_of(imap.local_to_global(blocks.astype(np.int32)))
+        self._equations = None                                  # built at the first residual (bcs complete)
+        n = len(blocks)
+        self.g, self.N = np.zeros(n), np.zeros((n, d))
+        self.facet, self.weights = np.full(n, -1, np.int64), np.zeros((n, d))
+        self.r = np.zeros((n, (1 + d) * d))
+        self.K = np.zeros((n, (1 + d) * d, (1 + d) * d))
+
+    # -- equation numbers ----------------------------------------------------------------------
+    def _global_equations(self, local_w):
+        """Global equation numbers of the solver's w dofs (local indices); -1 where a Dirichlet condition
+        holds the dof (PETSc skips negative indices)."""
+        s = self.solver
+        W = s.W
+        imap, bs = W.dofmap.index_map, W.dofmap.index_map_bs
+        local_w = np.asarray(local_w, dtype=np.int64)
+        flat = local_w.ravel()
+        glob = imap.local_to_global((flat // bs).astype(np.int32)).astype(np.int64) * bs + flat % bs
+        return np.where(self._constrained[flat], -1, glob).reshape(local_w.shape)
+
+    def _build_equations(self):
+        s = self.solver
+        n_local = len(s.w.x.array)
+        self._constrained = np.zeros(n_local, dtype=bool)
+        for bc in s.bcs:
+            self._constrained[dc.bc_dofs(bc)] = True
+        self._slave_eq = self._global_equations(self.vmap[self.dofs])                 # (n, dim)
+        surf = self.surface
+        self._master_eq = surf.global_rows(self._global_equations(self.vmap[surf.dofs]))   # (nv, dim)
+
+    # -- the solver's calls --------------------------------------------------------------------
+    def residual(self, b):
+        """b -= the contact forces at the solver's current state (global entries; off-process ones are
+        stashed: the caller assembles b)."""
+        if self._equations is None:
+            self._build_equations()
+            self._equations = True
+        s = self.solver
+        u = s.w.x.array[self.vmap]                      # displacement on the Vc numbering (ghosts current)
+        self.surface.move(u)
+        x = self.X + u[self.dofs]
+        nearest_points(self.surface.surface, x, self.skip, self.g, self.N, self.facet, self.weights)
+        surf = self.surface.surface
+        _node_terms(x, self.area, self.facet, surf.vertices, surf.facets, self.penalty, self.r, self.K, self.g,
+                    self.N)
+        on = np.flatnonzero(self.g < 0.0)
+        self._active = on
+        if len(on):
+            eq = self._equations_of(on)
+            eq, r = eq.ravel(), self.r[on].ravel()
+            free = eq >= 0
+            b.setValues(eq[free].astype(PETSc.IntType), r[free], addv=PETSc.InsertMode.ADD)
+
+    def _equations_of(self, rows):
+        verts = self.surface.surface.facets[self.facet[rows]]                         # (m, nfv)
+        return np.concatenate([self._slave_eq[rows], self._master_eq[verts].reshape(len(rows), -1)], axis=1)
+
+    def jacobian(self, A):
+        """A += the contact tangent at the state of the last :meth:`residual` (SNES evaluates the residual,
+        then the Jacobian, at the same iterate)."""
+        on = self._active
+        if not len(on):
+            return
+        eq = self._equations_of(on).astype(PETSc.IntType)
+        for k, i in enumerate(on):
+            A.setValues(eq[k], eq[k], self.K[i], addv=PETSc.InsertMode.ADD)
+
+    # -- reports (collective) --------------------------------------------------------------------
+    def pressures(self):
+        """(positions (n, dim) [mm], p (n,) [MPa]) of this rank's slave nodes at the last residual."""
+        u = self.solver.w.x.array[self.vmap]
+        return self.X + u[self.dofs], self.penalty * np.maximum(-self.g, 0.0)
+
+    def force(self):
+        """Total contact force on the slave nodes [N] (dim,) at the last residual (2 pi r included in
+        axisymmetry)."""
+        f = (self.area * self.penalty * np.maximum(-self.g, 0.0))[:, None] * self.N
+        return self.comm.allreduce(f.sum(axis=0), op=MPI.SUM)
+
+    def normal_force(self):
+        return self.comm.allreduce(float(np.dot(self.area, self.penalty * np.maximum(-self.g, 0.0))), op=MPI.SUM)
+
+    def max_penetration(self):
+        """Largest -g over the slave nodes at the last residual [mm] (0 if none penetrates)."""
+        local = float(max(0.0, -self.g.min())) if self.g.size else 0.0
+        return self.comm.allreduce(local, op=MPI.MAX)
+
+
+class TwoPassTerms:
+    """A static contact pair between two facet groups taken both ways (``forward``: the group's nodes
+    against the master's facets; ``backward``: the master's against the group's), as one pair's reports."""
+
+    def __init__(self, forward, backward):
+        self.forward, self.backward = forward, backward
+        self.name, self.penalty = forward.name, forward.penalty
+
+    def force(self):
+        """Force [N] on the group's side: forward's on its slaves less backward's (whose reactions act on
+        the group's nodes)."""
+        return np.asarray(self.forward.force()) - np.asarray(self.backward.force())
+
+    def normal_force(self):
+        return self.forward.normal_force() + self.backward.normal_force()
+
+    def max_penetration(self):
+        return max(self.forward.max_penetration(), self.backward.max_penetration())
+
+
+def add_surface_contact(solver, facet_tags, tag, master_tag, penalty, two_pass=True, name=None):
+    """The pair of the nodes tagged ``tag`` against the body's facets tagged ``master_tag`` (and, with
+    ``two_pass``, back) as terms of the static ``solver`` (before its :meth:`setup`). Returns the
+    :class:`SurfaceContactTerm` or :class:`TwoPassTerms` (reports). Collective."""
+    Vc, _ = solver.displacement_space()
+    X = Vc.tabulate_dof_coordinates()[:, :Vc.dofmap.index_map_bs]
+    surfaces = {t: BodySurface(Vc, X, facet_tags, t) for t in ({master_tag, tag} if two_pass else {master_tag})}
+    forward = SurfaceContactTerm(solver, facet_tags, tag, surfaces[master_tag], penalty, name)
+    solver.terms.append(forward)
+    if not two_pass:
+        return forward
+    backward = SurfaceContactTerm(solver, facet_tags, master_tag, surfaces[tag], penalty, name)
+    solver.terms.append(backward)
+    return TwoPassTerms(forward, backward)
+
+
+# ----------------------------------------------------------------------------------------------
+# compiled: one node-to-facet element's force and its central-difference tangent
+
+
+@_njit
+def _element_force(P, nfv, eps, area, n_f, f):
+    """f (1 + nfv, dim) = the forces [N] on the slave (row 0, position P[0]) and on the facet's vertices
+    (P[1:]) of the element of slave area ``area`` [mm^2] and facet normal n_f (its own, from the vertices'
+    order; only its side is used at edges and corners). Returns (g [mm], N)."""
+    dim = P.shape[1]
+    V = P[1:]
+    if dim == 2:
+        d2, q0, q1, feature, t = _segment_nearest(P[0], V, 0, 1)
+        q2 = 0.0
+        w = (1.0 - t, t, 0.0)
+    else:
+        d2, q0, q1, q2, feature, v, ww = _triangle_nearest(P[0], V, 0, 1, 2)
+        w = (1.0 - v - ww, v, ww)
+    r0, r1 = P[0, 0] - q0, P[0, 1] - q1
+    r2 = P[0, 2] - q2 if dim == 3 else 0.0
+    along = r0 * n_f[0] + r1 * n_f[1] + (r2 * n_f[2] if dim == 3 else 0.0)
+    dist = math.sqrt(d2)
+    N = np.empty(dim)
+    if feature == 0 or dist <= 1e-14:
+        g = along
+        for j in range(dim):
+            N[j] = n_f[j]
+    else:
+        sign = 1.0 if along >= 0.0 else -1.0
+        g = sign * dist
+        N[0], N[1] = sign * r0 / dist, sign * r1 / dist
+        if dim == 3:
+            N[2] = sign * r2 / dist
+    p = eps * (-g) if g < 0.0 else 0.0
+    for j in range(dim):
+        f[0, j] = area * p * N[j]
+        for a in range(nfv):
+            f[1 + a, j] = -w[a] * f[0, j]
+    return g, N
+
+
+@_njit
+def _facet_normal(P):
+    """The unit normal of the facet P[1:] (left of a segment's direction, right-handed about a triangle's
+    vertex order)."""
+    dim = P.shape[1]
+    n = np.zeros(dim)
+    if dim == 2:
+        t0, t1 = P[2, 0] - P[1, 0], P[2, 1] - P[1, 1]
+        n[0], n[1] = -t1, t0
+    else:
+        a0, a1, a2 = P[2, 0] - P[1, 0], P[2, 1] - P[1, 1], P[2, 2] - P[1, 2]
+        b0, b1, b2 = P[3, 0] - P[1, 0], P[3, 1] - P[1, 1], P[3, 2] - P[1, 2]
+        n[0], n[1], n[2] = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+    size = math.sqrt(np.sum(n * n))
+    return n / size if size > 0.0 else n
+
+
+@_njit
+def _node_terms(x, area, facet, V, F, eps, r, K, g, N):
+    """Per slave node i with a facet (facet[i] >= 0): r[i] = -f (the residual's entries: the slave's dim
+    components, then each facet vertex's) and K[i] = -df/dx by central differences; g[i], N[i] the gap and
+    normal (overwriting the search's with the element's own, the same numbers inside a facet). Nodes
+    without a facet get g = inf and zeros."""
+    n, dim = x.shape
+    nfv = F.shape[1]
+    m = (1 + nfv) * dim
+    P = np.empty((1 + nfv, dim))
+    f = np.empty((1 + nfv, dim))
+    fp = np.empty((1 + nfv, dim))
+    fm = np.empty((1 + nfv, dim))
+    for i in range(n):
+        r[i, :] = 0.0
+        K[i, :, :] = 0.0
+        fc = facet[i]
+        if fc < 0:
+            g[i] = math.inf
+            continue
+        for j in range(dim):
+            P[0, j] = x[i, j]
+        size = 0.0
+        for a in range(nfv):
+            for j in range(dim):
+                P[1 + a, j] = V[F[fc, a], j]
+            for b in range(a):
+                e = 0.0
+                for j in range(dim):
+                    e += (V[F[fc, a], j] - V[F[fc, b], j]) ** 2
+                size = max(size, math.sqrt(e))
+        gi, Ni = _element_force(P, nfv, eps, area[i], _facet_normal(P), f)
+        g[i] = gi
+        for j in range(dim):
+            N[i, j] = Ni[j]
+        for a in range(1 + nfv):
+            for j in range(dim):
+                r[i, a * dim + j] = -f[a, j]
+        if gi >= 0.0:
+            continue
+        h = FD_STEP * size
+        for c in range(m):
+            a, j = c // dim, c % dim
+            keep = P[a, j]
+            P[a, j] = keep + h
+            _element_force(P, nfv, eps, area[i], _facet_normal(P), fp)
+            P[a, j] = keep - h
+            _element_force(P, nfv, eps, area[i], _facet_normal(P), fm)
+            P[a, j] = keep
+            for b in range(1 + nfv):
+                for k in range(dim):
+                    K[i, b * dim + k, c] = -(fp[b, k] - fm[b, k]) / (2.0 * h)
