@@ -110,7 +110,7 @@ class SurfaceContactTerm:
         surf = self.surface.surface
         _node_terms(x, self.area, self.facet, surf.vertices, surf.facets, self.penalty, self.r, self.K, self.g,
                     self.N)
-        on = np.flatnonzero(self.g < 0.0)
+        on = np.flatnonzero(self.g <= 0.0)        # pressed or touching: a tangent (a body held by contact alone)
         self._active = on
         if len(on):
             eq = self._equations_of(on)
@@ -248,6 +248,42 @@ def _facet_normal(P):
 
 
 @_njit
+def _segment_tangent(P, xi, g, k, K):
+    """K (6, 6) = k [N_e N_e^T + g dN_e/dx] of a slave node P[0] pressed (g <= 0) into the inside of the
+    segment P[1], P[2] (nearest point at xi in (0, 1)), k = eps A [N/mm]: the node-to-segment tangent
+    (Wriggers 2006, sec. 9.1; K = -df/dx of f = -k g N_e, N_e = (n, -(1 - xi) n, -xi n)), with
+    dg = N_e . dx, dxi = (T_e + g / l D_e) . dx / l, dn = -tau (D_e . dx) / l (tau the unit tangent, l the
+    length, T_e = (tau, -(1 - xi) tau, -xi tau), D_e = (0, -n, n))."""
+    t0, t1 = P[2, 0] - P[1, 0], P[2, 1] - P[1, 1]
+    length = math.sqrt(t0 * t0 + t1 * t1)
+    tau = np.array([t0 / length, t1 / length])
+    n = np.array([-tau[1], tau[0]])
+    Ne = np.empty(6)
+    Te = np.empty(6)
+    De = np.zeros(6)
+    c = (1.0, -(1.0 - xi), -xi)
+    for a in range(3):
+        for j in range(2):
+            Ne[2 * a + j] = c[a] * n[j]
+            Te[2 * a + j] = c[a] * tau[j]
+    for j in range(2):
+        De[2 + j] = -n[j]
+        De[4 + j] = n[j]
+    for r in range(6):
+        a, j = r // 2, r % 2
+        for q in range(6):
+            dxi = (Te[q] + g / length * De[q]) / length
+            dn = -tau[j] * De[q] / length                      # d n_j / d x_q
+            if a == 0:
+                dNe = dn
+            elif a == 1:
+                dNe = -(1.0 - xi) * dn + n[j] * dxi
+            else:
+                dNe = -xi * dn - n[j] * dxi
+            K[r, q] = k * (Ne[r] * Ne[q] + g * dNe)
+
+
+@_njit
 def _node_terms(x, area, facet, V, F, eps, r, K, g, N):
     """Per slave node i with a facet (facet[i] >= 0): r[i] = -f (the residual's entries: the slave's dim
     components, then each facet vertex's) and K[i] = -df/dx by central differences; g[i], N[i] the gap and
@@ -285,9 +321,17 @@ def _node_terms(x, area, facet, V, F, eps, r, K, g, N):
         for a in range(1 + nfv):
             for j in range(dim):
                 r[i, a * dim + j] = -f[a, j]
-        if gi >= 0.0:
+        if gi > 0.0:        # apart: no force, no stiffness
             continue
+        if dim == 2:
+            _, _, _, feature, xi = _segment_nearest(P[0], P[1:], 0, 1)
+            if feature == 0:
+                _segment_tangent(P, xi, gi, eps * area[i], K[i])
+                continue
+        # corners and edges (and 3-D): central differences, the step below the gap so as not to cross g = 0
         h = FD_STEP * size
+        if gi < 0.0:
+            h = min(h, 1e-3 * -gi)
         for c in range(m):
             a, j = c // dim, c % dim
             keep = P[a, j]
