@@ -45,9 +45,10 @@ def hertz_errors(b):
 
 
 def observed_orders(solver):
-    """log(r_k+1 / r_k) / log(r_k / r_k-1) of each increment's last step, residuals above 1e-10 of the run's
-    largest (below: round-off)."""
-    floor = 1e-10 * max(max(rec["norms"]) for rec in solver.increments)
+    """log(r_k+1 / r_k) / log(r_k / r_k-1) of each increment's last step, residuals above the solver's estimate
+    of their round-off floor (StaticSolver.roundoff_floor, of the last Jacobian) and 1e-12 of the run's
+    largest."""
+    floor = max(solver.roundoff_floor, 1e-12 * max(max(rec["norms"]) for rec in solver.increments))
     out = []
     for rec in solver.increments:
         r = [x for x in rec["norms"] if x > floor]
@@ -140,3 +141,50 @@ def test_hertz_serial_equals_two_ranks(tmp_path):
         assert r.returncode == 0, r.stderr[-3000:]
         forces.append(np.genfromtxt(tmp_path / name / "history.csv", delimiter=",", names=True)["force_kN"])
     np.testing.assert_allclose(forces[1], forces[0], rtol=1e-8, atol=1e-12)
+
+
+def rigid_die_scene(tmp_path):
+    """demos/elastic_die.toml without the die: the billet's top itself displaced by the die's travel (a rigid,
+    frictionless die)."""
+    import re
+    text = (REPO / "demos" / "elastic_die.toml").read_text().replace('file = "../meshes/', f'file = "{REPO}/meshes/')
+    for table in ("materials\\.die", "contact\\.die_face", "outputs\\.die_peak_stress"):
+        text = re.sub(rf"\[{table}\]\n(.*\n)*?\n", "", text)
+    text = text.replace('group = "die_top"', 'group = "billet_top"').replace("die_thickness = 8.0", "die_thickness = 0.0")
+    scene = tmp_path / "rigid_die.toml"
+    scene.write_text(text)
+    return scene
+
+
+def cli_summary(scene, out, *sets):
+    import json
+    cmd = [sys.executable, "-m", "fenics_plast.cli", "run", str(scene), "--out", str(out), "--set", "output.xdmf=false"]
+    for s in sets:
+        cmd += ["--set", s]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr[-3000:]
+    return json.loads((Path(out) / "summary.json").read_text())
+
+
+def test_elastic_die_tends_to_the_rigid_die(tmp_path):
+    """Billet upsetting by 2 mm of die travel with the die a deformable body: the die's elastic compression
+    leaves the billet less pressed, by a share that falls as the die's modulus grows (about as 1 / E), and the
+    press force tends to the rigid die's (measured 1 - F / F_rigid: 4.0e-3 at 70 GPa, 1.4e-3 at 210 GPa,
+    1.8e-4 at 2,100 GPa); the die's peak von Mises stress is reported and below the billet's mean pressure
+    times a few."""
+    rigid = cli_summary(rigid_die_scene(tmp_path), tmp_path / "rigid")["press_force_kN"]
+    deficit = []
+    for E in (70e3, 210e3, 2.1e6):
+        s = cli_summary(REPO / "demos" / "elastic_die.toml", tmp_path / f"die_{E:g}", f"materials.die.E={E}")
+        deficit.append(1.0 - s["press_force_kN"] / rigid)
+        assert 0.0 < s["die_peak_stress_MPa"] < 5 * abs(rigid) * 1e3 / (math.pi * 10.0 ** 2)
+    assert deficit[0] > deficit[1] > deficit[2] > 0.0, deficit
+    assert deficit[0] < 1e-2 and deficit[2] < 5e-4, deficit
+    assert 2.0 < deficit[0] / deficit[1] < 4.0, deficit          # about as 1 / E (x 3)
+
+
+def test_elastic_die_newton_converges_quadratically():
+    """Plastic billet, elastic die, contact between them (q1p0): Newton's last steps quadratic."""
+    b = run_static("elastic_die.toml")
+    orders = observed_orders(b.solver)
+    assert len(orders) >= 5 and np.median(orders) > 1.5, orders

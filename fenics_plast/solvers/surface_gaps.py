@@ -54,6 +54,8 @@ class FacetSurface(NamedTuple):
     children: np.ndarray        # (nb, 2) the two child boxes of an inner box; -1 for a leaf
     leaf: np.ndarray            # (nb, 2) a leaf's facets: order[leaf[b, 0]:leaf[b, 1]]
     order: np.ndarray           # (nf,) facet indices, each leaf's contiguous
+    open_vertices: np.ndarray   # (nv,) 1 at a vertex on the surface's open boundary (2-D: of one segment)
+    open_edges: np.ndarray      # (nf, 3) 1 at an edge of one triangle (3-D; (nf, 0) in 2-D)
 
 
 def _orient(facets: np.ndarray, dim: int) -> np.ndarray:
@@ -136,16 +138,22 @@ def oriented_surface(vertices, facets) -> FacetSurface:
         np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
     if not np.all(size > 0):
         raise ValueError(f"facet {int(np.argmin(size))} of the surface is degenerate (zero length or area)")
+    open_vertices = np.zeros(len(V), dtype=np.int8)
     if dim == 2:
         facet_edges, n_edges = np.zeros((len(F), 0), dtype=np.int64), 0
+        open_edges = np.zeros((len(F), 0), dtype=np.int8)
+        open_vertices[np.bincount(F.ravel(), minlength=len(V)) == 1] = 1
     else:
         keys = np.sort(np.stack([F, np.roll(F, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
         unique, facet_edges = np.unique(keys, axis=0, return_inverse=True)
         facet_edges, n_edges = facet_edges.reshape(-1, 3).astype(np.int64), len(unique)
+        once = np.bincount(facet_edges.ravel(), minlength=n_edges) == 1
+        open_edges = once[facet_edges].astype(np.int8)
+        open_vertices[unique[once].ravel()] = 1
     _, _, children, leaf, order = _hierarchy(P.min(axis=1), P.max(axis=1))
     nb = len(children)
     s = FacetSurface(V, F, np.zeros((len(F), dim)), facet_edges, np.zeros((n_edges, dim)), np.zeros_like(V),
-                     np.zeros((nb, dim)), np.zeros((nb, dim)), children, leaf, order)
+                     np.zeros((nb, dim)), np.zeros((nb, dim)), children, leaf, order, open_vertices, open_edges)
     refresh(s, V)
     return s
 
@@ -202,20 +210,32 @@ def surface_gaps(surface: FacetSurface, x, d=None, reach: float = math.inf, deri
     g, N, dN = np.empty(len(x)), np.empty((len(x), dim)), np.empty((len(x), dim, dim))
     _gaps(s.vertices + d, s.facets, s.normals, s.facet_edges, s.edge_normals, s.vertex_normals, s.box_lo + d,
           s.box_hi + d, s.children, s.leaf, s.order, x, float(reach), g, N, dN, np.full(len(x), -1, np.int64),
-          np.empty(len(x), np.int64), np.empty((len(x), dim)))
+          np.empty(len(x), np.int64), np.empty((len(x), dim)), s.open_vertices, s.open_edges, 0.0)
     return (g, N, dN) if derivative else (g, N)
+
+
+#: node-to-surface contact: a point whose nearest point lies on the surface's open boundary is apart when it
+#: lies farther than this fraction of the facet's size beyond the boundary, in the facet's plane
+OPEN_BOUNDARY_TOLERANCE = 1e-3
 
 
 def nearest_points(surface: FacetSurface, x, skip, g, N, facet, weights, reach: float = math.inf) -> None:
     """Node-to-surface contact's search: for the points x (n, dim) [mm], into g (n,) [mm] and N (n, dim) (as
     :func:`surface_gaps`), facet (n,) the facet that holds the nearest point (-1 beyond ``reach``) and
     weights (n, dim) of that facet's vertices there (sum 1: the point is weights . vertices[facets[facet]]).
-    skip (n,): a vertex whose facets point i does not see (-1: none; a node of the surface itself)."""
+    skip (n,): a vertex whose facets point i does not see (-1: none; a node of the surface itself).
+
+    A surface with an open boundary (the face of a body, a group that ends) has no inside beyond its edge:
+    a point whose nearest point lies on the open boundary and that is more than
+    :data:`OPEN_BOUNDARY_TOLERANCE` of the facet's size beyond it (measured in the facet's plane) is apart
+    (g = reach, N = 0, facet -1); within it, it has the facet's own gap and normal (a node at the corner
+    of the other body's face)."""
     s = surface
     dim = s.vertices.shape[1]
     _gaps(s.vertices, s.facets, s.normals, s.facet_edges, s.edge_normals, s.vertex_normals, s.box_lo, s.box_hi,
           s.children, s.leaf, s.order, np.ascontiguousarray(x, dtype=float)[:, :dim], float(reach), g, N,
-          np.empty((len(x), dim, dim)), skip, facet, weights)
+          np.empty((len(x), dim, dim)), skip, facet, weights, s.open_vertices, s.open_edges,
+          OPEN_BOUNDARY_TOLERANCE)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -365,11 +385,12 @@ def _refresh(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi,
 
 @_njit
 def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi, children, leaf, order, x, reach, g, N,
-          dN, skip, facet_of, weights):
+          dN, skip, facet_of, weights, open_vertices, open_edges, open_tolerance):
     """g (n,), N (n, dim), dN (n, dim, dim) of the points x (n, dim) to the surface of vertices V and boxes
     (already translated); see :func:`surface_gaps`. Also the nearest facet facet_of (n,) (-1: none within
     reach) and the weights (n, dim) of its vertices at the nearest point; facets with the vertex skip[i]
-    (-1: none) are not searched for point i (a body's own node)."""
+    (-1: none) are not searched for point i (a body's own node). open_tolerance > 0: a nearest point on the
+    open boundary (open_vertices, open_edges) is apart beyond it (:func:`nearest_points`)."""
     dim = V.shape[1]
     stack = np.empty(2 * len(box_lo) + 2, dtype=np.int64)
     reach2 = reach * reach if reach < math.inf else math.inf
@@ -418,6 +439,33 @@ def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi, ch
             weights[i, 0], weights[i, 1] = 1.0 - wv, wv
         else:
             weights[i, 0], weights[i, 1], weights[i, 2] = 1.0 - wv - ww, wv, ww
+        if open_tolerance > 0.0 and feature != 0:
+            on_open = (open_vertices[F[facet, feature - 1]] == 1) if feature <= dim else \
+                (open_edges[facet, feature - 4] == 1)
+            if on_open:
+                # the point's offset from q in the facet's plane against the facet's size
+                r0_, r1_, r2_ = p[0] - q0, p[1] - q1, (p[2] - q2 if dim == 3 else 0.0)
+                nf = n[facet]
+                normal_part = r0_ * nf[0] + r1_ * nf[1] + (r2_ * nf[2] if dim == 3 else 0.0)
+                in0, in1 = r0_ - normal_part * nf[0], r1_ - normal_part * nf[1]
+                in2 = r2_ - normal_part * nf[2] if dim == 3 else 0.0
+                size = 0.0
+                for a in range(dim):
+                    b = (a + 1) % dim
+                    e = 0.0
+                    for j in range(dim):
+                        e += (V[F[facet, a], j] - V[F[facet, b], j]) ** 2
+                    size = max(size, e)
+                if in0 * in0 + in1 * in1 + in2 * in2 > (open_tolerance * open_tolerance) * size:
+                    g[i] = reach
+                    N[i, :] = 0.0
+                    weights[i, :] = 0.0
+                    facet_of[i] = -1
+                    continue
+                g[i] = normal_part
+                for j in range(dim):
+                    N[i, j] = nf[j]
+                continue
         if feature == 0:
             normal = n[facet]
         elif feature <= dim:
