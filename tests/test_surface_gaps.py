@@ -38,13 +38,13 @@ def icosphere(radius: float, subdivisions: int):
 def brute_force(V, F, x):
     """The unsigned distance of each point x (n, dim) to the surface, the smallest over every facet (the
     compiled nearest-point formulas, without the hierarchy)."""
-    from fenics_plast.solvers.surface_gaps import _segment_nearest, _triangle_nearest
+    from fenics_plast.solvers.surface_gaps import segment_nearest, triangle_nearest
     out = np.empty(len(x))
     for i, p in enumerate(x):
         if V.shape[1] == 2:
-            out[i] = math.sqrt(min(_segment_nearest(p, V, a, b)[0] for a, b in F))
+            out[i] = math.sqrt(min(segment_nearest(p, V, a, b)[0] for a, b in F))
         else:
-            out[i] = math.sqrt(min(_triangle_nearest(p, V, a, b, c)[0] for a, b, c in F))
+            out[i] = math.sqrt(min(triangle_nearest(p, V, a, b, c)[0] for a, b, c in F))
     return out
 
 

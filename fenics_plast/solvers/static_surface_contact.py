@@ -31,7 +31,7 @@ from petsc4py import PETSc
 
 from fenics_plast import dolfinx_compat as dc
 from fenics_plast.solvers.body_surface import BodySurface, tributary_areas
-from fenics_plast.solvers.surface_gaps import _segment_nearest, _triangle_nearest, nearest_points
+from fenics_plast.solvers.surface_gaps import nearest_points, segment_nearest, triangle_nearest
 from fenics_plast.solvers.tool_gaps import FLAGS
 
 _njit = numba.njit(cache=True, **FLAGS)
@@ -201,11 +201,11 @@ def _element_force(P, nfv, eps, area, n_f, f):
     dim = P.shape[1]
     V = P[1:]
     if dim == 2:
-        d2, q0, q1, feature, t = _segment_nearest(P[0], V, 0, 1)
+        d2, q0, q1, feature, t = segment_nearest(P[0], V, 0, 1)
         q2 = 0.0
         w = (1.0 - t, t, 0.0)
     else:
-        d2, q0, q1, q2, feature, v, ww = _triangle_nearest(P[0], V, 0, 1, 2)
+        d2, q0, q1, q2, feature, v, ww = triangle_nearest(P[0], V, 0, 1, 2)
         w = (1.0 - v - ww, v, ww)
     r0, r1 = P[0, 0] - q0, P[0, 1] - q1
     r2 = P[0, 2] - q2 if dim == 3 else 0.0
@@ -324,7 +324,7 @@ def _node_terms(x, area, facet, V, F, eps, r, K, g, N):
         if gi > 0.0:        # apart: no force, no stiffness
             continue
         if dim == 2:
-            _, _, _, feature, xi = _segment_nearest(P[0], P[1:], 0, 1)
+            _, _, _, feature, xi = segment_nearest(P[0], P[1:], 0, 1)
             if feature == 0:
                 _segment_tangent(P, xi, gi, eps * area[i], K[i])
                 continue

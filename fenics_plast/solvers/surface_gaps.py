@@ -243,7 +243,7 @@ def nearest_points(surface: FacetSurface, x, skip, g, N, facet, weights, reach: 
 
 
 @_njit
-def _segment_nearest(p, V, f0, f1):
+def segment_nearest(p, V, f0, f1):
     """(squared distance, q0, q1, feature, s) of point p (2,) to the segment of vertices f0, f1 of V;
     feature 0 inside, 1 at the first vertex, 2 at the second; q = (1 - s) V[f0] + s V[f1]."""
     a0, a1 = V[f0, 0], V[f0, 1]
@@ -265,7 +265,7 @@ def _dot3(a0, a1, a2, b0, b1, b2):
 
 
 @_njit
-def _triangle_nearest(p, V, fa, fb, fc):
+def triangle_nearest(p, V, fa, fb, fc):
     """(squared distance, q0, q1, q2, feature, v, w) of point p (3,) to the triangle of vertices fa, fb, fc
     of V (Ericson, Real-Time Collision Detection, 5.1.5); feature 0 inside, 1, 2, 3 at vertex a, b, c,
     4, 5, 6 on edge ab, bc, ca; q = a + v (b - a) + w (c - a)."""
@@ -414,10 +414,10 @@ def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi, ch
                                          or (dim == 3 and F[f, dim - 1] == skip[i])):
                         continue
                     if dim == 2:
-                        dd, a0, a1, ff, sv = _segment_nearest(p, V, F[f, 0], F[f, 1])
+                        dd, a0, a1, ff, sv = segment_nearest(p, V, F[f, 0], F[f, 1])
                         a2 = sw = 0.0
                     else:
-                        dd, a0, a1, a2, ff, sv, sw = _triangle_nearest(p, V, F[f, 0], F[f, 1], F[f, 2])
+                        dd, a0, a1, a2, ff, sv, sw = triangle_nearest(p, V, F[f, 0], F[f, 1], F[f, 2])
                     if dd < best:
                         best, facet, feature, q0, q1, q2, wv, ww = dd, f, ff, a0, a1, a2, sv, sw
                 continue
