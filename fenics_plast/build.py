@@ -278,7 +278,8 @@ def contact_pairs(problem, mesh, facet_tags, groups, material, tools) -> dict[st
         master = spec.get("master")
         if master is not None:
             out[name] = ContactPair(name, None, tag, eps, spec.friction, spec.law, spec.tangential_penalty, depth,
-                                    default, master_tag=groups[master][1], two_pass=spec.two_pass is not False)
+                                    default, master_tag=groups[master][1],
+                                    two_pass=spec.two_pass is not False and master != spec.group)
             continue
         if not getattr(tools[spec.tool], "has_ufl_gap", True):
             _check_starting_side(spec, tools[spec.tool], mesh, facet_tags, tag, depth)

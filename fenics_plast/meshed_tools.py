@@ -56,6 +56,7 @@ def read_surface(path, group: str, dim: int, comm, scene_dir=None):
         gmsh.initialize()
         try:
             gmsh.option.setNumber("General.Terminal", 0)
+            gmsh.onelab.clear()     # ONELAB outlives finalize: another file's parameters would stick
             if not path.is_file():
                 raise SceneError(f"file {path} not found")
             if path.suffix.lower() not in (".geo", ".msh"):

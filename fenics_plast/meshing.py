@@ -40,6 +40,7 @@ def mesh_from_geo(comm, name: str, parameters: dict, gdim: int = 2):
     gmsh.initialize()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.onelab.clear()
         tag_ids = {}
         if comm.rank == 0:
             for key, value in parameters.items():
@@ -257,6 +258,7 @@ def mesh_from_file(comm, path, parameters=None, refine=default("mesh.refine"), g
     gmsh.initialize()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.onelab.clear()     # ONELAB outlives finalize: another file's parameter of the same name would stick
         gmsh.logger.start()
         error, groups = None, {}
         if comm.rank == 0:

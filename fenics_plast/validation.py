@@ -438,8 +438,12 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
                    f"of the body, explicit analyses)")
         elif c.tool is not None and c.tool not in tools:
             v.fail(f"contact.{n}.tool = {c.tool!r} is not a tool: tools are {', '.join(tools) or 'none'}")
-        elif master is not None and master == c.group:
-            v.fail(f"contact.{n}.master = {master!r} is the pair's own group: self-contact is not available yet")
+        elif master is not None and master == c.group and not explicit:
+            v.fail(f"contact.{n}.master = {master!r} is the pair's own group: self-contact is for explicit "
+                   f"analyses")
+        elif master is not None and master == c.group and c.get("two_pass") is not None:
+            v.fail(f"contact.{n}.two_pass: a self-contact pair (master = group) has one pass, its nodes against "
+                   f"its own facets")
         if master is not None and not explicit and c.friction > 0:
             v.fail(f"contact.{n}.friction = {c.friction:g}: contact between facet groups of the body is "
                    f"frictionless in static analyses (friction 0; explicit analyses take friction)")

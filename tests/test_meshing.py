@@ -40,3 +40,16 @@ def test_mesh_parallel_cell_count():
     n_top = COMM.allreduce(len([f for f in ft.find(ids["top"]) if f < mesh.topology.index_map(1).size_local]),
                            op=MPI.SUM)
     assert n_top == 4
+
+
+def test_a_parameter_of_one_file_does_not_stick_to_the_next():
+    """Gmsh's ONELAB parameters outlive gmsh.finalize: a file meshed with `gap` = 0 (two_bars.geo) left its gap
+    to the next file defining a parameter of that name (u_strip.geo, default gap 2 mm: its arms then merged and
+    three cells came out inverted). Each meshing starts from a clear ONELAB database."""
+    from fenics_plast.meshing import MESH_DIR, mesh_from_file
+    first = mesh_from_file(COMM, MESH_DIR / "u_strip.geo", {}, 1, gdim=2)[0]
+    mesh_from_file(COMM, MESH_DIR / "two_bars.geo", {"gap": 0.0, "cells_axial": 4}, 1, gdim=2)
+    again = mesh_from_file(COMM, MESH_DIR / "u_strip.geo", {}, 1, gdim=2)[0]
+    assert again.topology.index_map(2).size_global == first.topology.index_map(2).size_global == 117
+    x = again.geometry.x
+    assert COMM.allreduce(float(x[:, 0].max()), op=MPI.MAX) == pytest.approx(6.0)

@@ -158,12 +158,14 @@ class BodySurface:
         refresh(self.surface, m[:, :bs])
         self.increment[:] = m[:, bs:]
 
-    def nearest(self, x, skip, g, N, facet, weights):
+    def nearest(self, x, skip, g, N, facet, weights, self_contact=False):
         """Gaps g (n,) [mm], normals N (n, dim) pointing out of the master body, the facet (n,) and the
         weights (n, dim) of the nearest points of the slave positions x (n, dim) [mm]
         (:func:`~fenics_plast.solvers.surface_gaps.nearest_points`); the master point's increment over the
-        step (n, dim) [mm] is returned."""
-        nearest_points(self.surface, x, skip, g, N, facet, weights)
+        step (n, dim) [mm] is returned. ``self_contact``: the points are this surface's own vertices skip
+        (n,), and only facets facing their vertex normals count."""
+        facing = self.surface.vertex_normals[skip] if self_contact else None
+        nearest_points(self.surface, x, skip, g, N, facet, weights, facing=facing)
         dd = np.empty_like(weights)
         _at_points(self.surface.facets, facet, weights, self.increment, dd)
         return dd

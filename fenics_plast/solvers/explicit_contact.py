@@ -389,7 +389,8 @@ class ContactSet:
             if p.kind == ck.BODY:
                 n = p.X.shape[0]
                 g, N, facet, w = np.empty(n), np.empty((n, self.dim)), np.empty(n, np.int64), np.empty((n, self.dim))
-                self.dd_node[p.sl] = p.tool.nearest(p.X + u[p.dofs], self.skip[p.sl], g, N, facet, w)
+                self.dd_node[p.sl] = p.tool.nearest(p.X + u[p.dofs], self.skip[p.sl], g, N, facet, w,
+                                                    self_contact=p.tool.tag == p.tag)
                 self.gN[p.sl, 0], self.gN[p.sl, 1:], self.facet[p.sl], self.weights[p.sl] = g, N, facet, w
             elif not p.compiled and p.X.shape[0]:
                 x = p.X + u[p.dofs]

@@ -210,7 +210,7 @@ def surface_gaps(surface: FacetSurface, x, d=None, reach: float = math.inf, deri
     g, N, dN = np.empty(len(x)), np.empty((len(x), dim)), np.empty((len(x), dim, dim))
     _gaps(s.vertices + d, s.facets, s.normals, s.facet_edges, s.edge_normals, s.vertex_normals, s.box_lo + d,
           s.box_hi + d, s.children, s.leaf, s.order, x, float(reach), g, N, dN, np.full(len(x), -1, np.int64),
-          np.empty(len(x), np.int64), np.empty((len(x), dim)), s.open_vertices, s.open_edges, 0.0)
+          np.empty(len(x), np.int64), np.empty((len(x), dim)), s.open_vertices, s.open_edges, 0.0, x, 2.0)
     return (g, N, dN) if derivative else (g, N)
 
 
@@ -219,7 +219,14 @@ def surface_gaps(surface: FacetSurface, x, d=None, reach: float = math.inf, deri
 OPEN_BOUNDARY_TOLERANCE = 1e-3
 
 
-def nearest_points(surface: FacetSurface, x, skip, g, N, facet, weights, reach: float = math.inf) -> None:
+#: self-contact: a facet counts for a point only when its normal and the point's own (its vertex normal)
+#: face each other, n_f . n_s below this (an angle over 107 degrees): the facets next to a node on its own
+#: surface, nearly parallel to it, are never its contact
+SELF_CONTACT_FACING = -0.3
+
+
+def nearest_points(surface: FacetSurface, x, skip, g, N, facet, weights, reach: float = math.inf,
+                   facing=None) -> None:
     """Node-to-surface contact's search: for the points x (n, dim) [mm], into g (n,) [mm] and N (n, dim) (as
     :func:`surface_gaps`), facet (n,) the facet that holds the nearest point (-1 beyond ``reach``) and
     weights (n, dim) of that facet's vertices there (sum 1: the point is weights . vertices[facets[facet]]).
@@ -229,13 +236,18 @@ def nearest_points(surface: FacetSurface, x, skip, g, N, facet, weights, reach: 
     a point whose nearest point lies on the open boundary and that is more than
     :data:`OPEN_BOUNDARY_TOLERANCE` of the facet's size beyond it (measured in the facet's plane) is apart
     (g = reach, N = 0, facet -1); within it, it has the facet's own gap and normal (a node at the corner
-    of the other body's face)."""
+    of the other body's face).
+
+    facing (n, dim): the points' own outward normals (self-contact, points of the surface itself): only
+    facets whose normal faces the point's (n_f . n_s < :data:`SELF_CONTACT_FACING`) are searched."""
     s = surface
     dim = s.vertices.shape[1]
+    x = np.ascontiguousarray(x, dtype=float)[:, :dim]
     _gaps(s.vertices, s.facets, s.normals, s.facet_edges, s.edge_normals, s.vertex_normals, s.box_lo, s.box_hi,
-          s.children, s.leaf, s.order, np.ascontiguousarray(x, dtype=float)[:, :dim], float(reach), g, N,
-          np.empty((len(x), dim, dim)), skip, facet, weights, s.open_vertices, s.open_edges,
-          OPEN_BOUNDARY_TOLERANCE)
+          s.children, s.leaf, s.order, x, float(reach), g, N, np.empty((len(x), dim, dim)), skip, facet, weights,
+          s.open_vertices, s.open_edges, OPEN_BOUNDARY_TOLERANCE,
+          x if facing is None else np.ascontiguousarray(facing, dtype=float), 2.0 if facing is None else
+          SELF_CONTACT_FACING)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -385,12 +397,13 @@ def _refresh(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi,
 
 @_njit
 def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi, children, leaf, order, x, reach, g, N,
-          dN, skip, facet_of, weights, open_vertices, open_edges, open_tolerance):
+          dN, skip, facet_of, weights, open_vertices, open_edges, open_tolerance, facing, facing_cos):
     """g (n,), N (n, dim), dN (n, dim, dim) of the points x (n, dim) to the surface of vertices V and boxes
     (already translated); see :func:`surface_gaps`. Also the nearest facet facet_of (n,) (-1: none within
     reach) and the weights (n, dim) of its vertices at the nearest point; facets with the vertex skip[i]
     (-1: none) are not searched for point i (a body's own node). open_tolerance > 0: a nearest point on the
-    open boundary (open_vertices, open_edges) is apart beyond it (:func:`nearest_points`)."""
+    open boundary (open_vertices, open_edges) is apart beyond it (:func:`nearest_points`). facing_cos <= 1:
+    facets with n_f . facing[i] >= facing_cos are not searched for point i (self-contact)."""
     dim = V.shape[1]
     stack = np.empty(2 * len(box_lo) + 2, dtype=np.int64)
     reach2 = reach * reach if reach < math.inf else math.inf
@@ -413,6 +426,12 @@ def _gaps(V, F, n, facet_edges, edge_normals, vertex_normals, box_lo, box_hi, ch
                     if skip[i] >= 0 and (F[f, 0] == skip[i] or F[f, 1] == skip[i]
                                          or (dim == 3 and F[f, dim - 1] == skip[i])):
                         continue
+                    if facing_cos <= 1.0:
+                        c = n[f, 0] * facing[i, 0] + n[f, 1] * facing[i, 1]
+                        if dim == 3:
+                            c += n[f, 2] * facing[i, 2]
+                        if c >= facing_cos:
+                            continue
                     if dim == 2:
                         dd, a0, a1, ff, sv = segment_nearest(p, V, F[f, 0], F[f, 1])
                         a2 = sw = 0.0
