@@ -112,7 +112,8 @@ def test_rod_on_rod_serial_equals_two_ranks(tmp_path):
 
 @pytest.mark.parametrize("sets, message", [
     (["contact.interface.tool=wall"], r"contact\.interface: give exactly one master surface"),
-    (["contact.interface.master=nope"], r"contact\.interface\.master = 'nope' is not a facet group .* the mesh's facet groups are axis"),
+    (["contact.interface.master=nope"],
+     r"contact\.interface\.master = 'nope' is not a facet group .* the mesh's facet groups are axis"),
     (["contact.interface.master=upper"], r"contact\.interface\.master = 'upper' is not a facet group .* region"),
     (["contact.interface.master=upper_face", "contact.interface.two_pass=true"],
      r"contact\.interface\.two_pass: a self-contact pair \(master = group\) has one pass"),

@@ -135,9 +135,10 @@ def test_hertz_serial_equals_two_ranks(tmp_path):
     env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "OPAL_"))}
     forces = []
     for name, launch in (("serial", []), ("mpi", [MPIRUN, "--allow-run-as-root", "--oversubscribe", "-n", "2"])):
-        r = subprocess.run([*launch, sys.executable, "-m", "fenics_plast.cli", "run", str(REPO / "demos" / "hertz_sphere.toml"),
-                            "--out", str(tmp_path / name), "--set", "mesh.parameters.cells_contact=10",
-                            "--set", "output.xdmf=false"], capture_output=True, text=True, timeout=900, env=env)
+        scene = REPO / "demos" / "hertz_sphere.toml"
+        r = subprocess.run([*launch, sys.executable, "-m", "fenics_plast.cli", "run", str(scene), "--out",
+                            str(tmp_path / name), "--set", "mesh.parameters.cells_contact=10", "--set",
+                            "output.xdmf=false"], capture_output=True, text=True, timeout=900, env=env)
         assert r.returncode == 0, r.stderr[-3000:]
         forces.append(np.genfromtxt(tmp_path / name / "history.csv", delimiter=",", names=True)["force_kN"])
     np.testing.assert_allclose(forces[1], forces[0], rtol=1e-8, atol=1e-12)

@@ -1,8 +1,9 @@
-"""A boundary facet group of the body as the master surface of node-to-surface contact (explicit solver).
+"""A boundary facet group of the body as the master surface of node-to-surface contact (both solvers).
 
 Two bodies are two regions of one mesh; a contact pair whose master surface is a facet group of the body
 presses the nodes of its slave group against the facets of the master group at their current positions,
-and every slave force has its reaction on the nodes of the master facet that holds the slave's nearest point, weighted by that point's coordinates in the facet (the force a node-to-surface element
+and every slave force has its reaction on the nodes of the master facet that holds the slave's nearest
+point, weighted by that point's coordinates in the facet (the force a node-to-surface element
 exerts on both sides: Wriggers, Computational Contact Mechanics, 2006, ch. 8).
 
 :class:`BodySurface` holds the group's facets as one :class:`~fenics_plast.solvers.surface_gaps.FacetSurface`

@@ -1,4 +1,5 @@
-r"""Penalty contact with Coulomb friction for the explicit solver: body nodes against rigid tools.
+r"""Penalty contact with Coulomb friction for the explicit solver: body nodes against rigid tools and
+against master surfaces of the body (another body's, or their own group's: self-contact).
 
 Each :class:`ExplicitContactPair` is the set of nodes of one boundary facet group of the body
 against one rigid tool (any object with ``gap_np(x, t) -> (g (n,), N (n, dim))``, ``dim`` and
@@ -41,6 +42,13 @@ tangent plane returned to |t| <= mu p on its norm
 (2 or 3) columns: positions, dofs, t_hist, N_hist, fc; the impulse and the tool translations
 ``dim`` components; :meth:`ExplicitContactPair.tangential_force` is the vector sum A_i t_i in 3-D
 and t_scal the norm |t| of each node's tangential traction.
+
+A master surface of the body (:class:`~fenics_plast.solvers.body_surface.BodySurface`, kind BODY): every
+step :meth:`ContactSet.update` moves it to the current positions, finds each slave node's nearest point,
+gives the kernel the gap, normal and that point's increment (the slip and the contact work are relative to
+it), and adds the reactions -w_a f_c to the master nodes; the springs count on both sides in the stable
+step; :class:`TwoPassPair` reports a pair taken both ways as one. Self-contact (the pair's own group as its
+master): each node searches only the facets that face it.
 """
 from __future__ import annotations
 
@@ -333,8 +341,8 @@ class ContactSet:
         self.pen = np.zeros(len(P))
         # the kernel's record of these very arrays (it updates the history in place; restore writes into them)
         self._arrays = ck.ContactArrays(self.X, self.dofs, self.pair, self.area, self.kind, self.params, self.eps,
-                                        self.eps_t, self.mu, self.law, self.gN, self.dd_node, self.t_hist, self.N_hist,
-                                        self.p_hist, self.t_scal, self.slip, self.fc, self.acc, self.pen)
+                                        self.eps_t, self.mu, self.law, self.gN, self.dd_node, self.t_hist,
+                                        self.N_hist, self.p_hist, self.t_scal, self.slip, self.fc, self.acc, self.pen)
         self._dt_stable = self._combined_dt() if P else math.inf
 
     def mass_changed(self):
