@@ -435,7 +435,7 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
         master = c.get("master")
         if (c.tool is None) == (master is None):
             v.fail(f"contact.{n}: give exactly one master surface, tool (a rigid tool) or master (a facet group "
-                   f"of the body, explicit analyses)")
+                   f"of the body)")
         elif c.tool is not None and c.tool not in tools:
             v.fail(f"contact.{n}.tool = {c.tool!r} is not a tool: tools are {', '.join(tools) or 'none'}")
         elif master is not None and master == c.group and not explicit:

@@ -2,19 +2,21 @@
 
 The static counterpart of the explicit solver's master surfaces of the body
 (:mod:`fenics_plast.solvers.body_surface`): each owned node s of the slave group finds the master facet
-nearest to it at the current Newton state (the same search, :func:`~fenics_plast.solvers.surface_gaps.nearest_points`),
-and that node-to-facet element contributes the forces
+nearest to it at the current Newton state (the same search,
+:func:`~fenics_plast.solvers.surface_gaps.nearest_points`), and that node-to-facet element contributes the
+forces
 
     f_s = A_s p N,  f_a = -w_a f_s  (a: the facet's vertices, w_a the nearest point's weights),
     p = eps <-g>,   g = (x_s - q) . n_f inside the facet (n_f its unit normal, out of the master body),
                     g = sign |x_s - q|, N = (x_s - q) / g at its edges and corners,
 
 with A_s the slave node's tributary area int N_s w dA0 [mm^2] (w = 2 pi R in axisymmetry), to the residual
-(R -= f) and their derivative to the Jacobian (K = -df/dx). The element's force is a closed-form function
-of its (1 + vertices) x dim positions; K is its central difference (step 1e-7 of the facet's size: an error
-of ~1e-10 relative, so Newton stays quadratic to the tolerances used; ``tests/test_static_body_contact.py``
-measures the rates), computed with the facet held fixed, as the consistent linearisation of
-node-to-segment contact does (Wriggers, Computational Contact Mechanics, 2006, sec. 9.1).
+(R -= f) and their derivative to the Jacobian (K = -df/dx), with the facet held fixed. Inside a segment
+(2-D) K is the node-to-segment element's consistent linearisation (Wriggers, Computational Contact
+Mechanics, 2006, sec. 9.1: :func:`_segment_tangent`); at a segment's end and on triangles (3-D) it is the
+central difference of the element's closed-form force, the step 1e-7 of the facet's size and below a
+thousandth of the gap (so that it does not cross g = 0). ``tests/test_static_body_contact.py`` holds the
+analytic tangent to central differences and measures Newton's rates.
 
 Rows and columns of constrained dofs (Dirichlet conditions) take no entries; the entries couple nodes of
 the two groups that the forms' sparsity does not hold, so the solver's matrix accepts new nonzeros (MUMPS
@@ -66,7 +68,7 @@ class SurfaceContactTerm:
             raise ValueError(f"contact pair {self.name!r}: facet group {tag} has no facets (zero area)")
         imap = Vc.dofmap.index_map
         self.skip = surface.skip_of(imap.local_to_global(blocks.astype(np.int32)))
-        self._equations = None                                  # built at the first residual (bcs complete)
+        self._equations_built = False                           # at the first residual (bcs complete)
         n = len(blocks)
         self.g, self.N = np.zeros(n), np.zeros((n, d))
         self.facet, self.weights = np.full(n, -1, np.int64), np.zeros((n, d))
@@ -99,9 +101,9 @@ class SurfaceContactTerm:
     def residual(self, b):
         """b -= the contact forces at the solver's current state (global entries; off-process ones are
         stashed: the caller assembles b)."""
-        if self._equations is None:
+        if not self._equations_built:
             self._build_equations()
-            self._equations = True
+            self._equations_built = True
         s = self.solver
         u = s.w.x.array[self.vmap]                      # displacement on the Vc numbering (ghosts current)
         self.surface.move(u)
