@@ -453,7 +453,7 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
     # expressions may name the one-column outputs declared before them; at_max_of any one-column one
     single_columns = [n for n, o in t["outputs"].items()
                       if column_count[n] == 1 and not getattr(kind(o.quantity), "DERIVED", False)]
-    ctx = dict(tools=tools, explicit=explicit, symbols=single_columns, end=analysis_end(t))
+    ctx = dict(tools=tools, contacts=t["contact"], explicit=explicit, symbols=single_columns, end=analysis_end(t))
     for n, o in t["outputs"].items():
         d = f"outputs.{n}"
         _kind_check(o, "check", d, ctx, v)

@@ -63,6 +63,7 @@ def test_rod_on_rod_is_the_bar_on_a_frictionless_wall(tmp_path, wall, friction):
     assert abs(s["upper_face_min_mm"]) < s["interface_max_penetration_mm"]
     assert s["max_energy_balance_error"] < 1e-2
     assert s["tool_work_J"] == 0.0 and s["external_work_J"] == 0.0
+    assert s["max_interface_force_kN"] > 10.0          # the lower bar pushes the upper one up (contact_force)
     # the kinetic energy went into the bars: both start with the whole KE0, lose it to plastic work
     assert s["max_kinetic_energy_J"] == pytest.approx(2 * wall["max_kinetic_energy_J"], rel=1e-9)
 
