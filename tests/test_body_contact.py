@@ -34,6 +34,22 @@ def summary(out):
     return json.loads((Path(out) / "summary.json").read_text())
 
 
+def stepped(scene, steps, *sets):
+    """The built explicit solver of demos/``scene`` with ``sets`` after ``steps`` steps of half the stable step
+    (in process)."""
+    from mpi4py import MPI
+
+    from fenics_plast.problem import load_problem
+    from fenics_plast.runner_explicit import build_explicit
+    b = build_explicit(load_problem(REPO / "demos" / scene, list(sets)), MPI.COMM_WORLD)
+    s = b.solver
+    s.initialize()
+    dt = 0.5 * s.stable_dt()
+    for _ in range(steps):
+        s.step(dt)
+    return b
+
+
 @pytest.fixture(scope="module")
 def wall(tmp_path_factory):
     """The coarse bar against a frictionless rigid contact wall (demos/taylor_bar_wall.toml)."""
@@ -73,19 +89,9 @@ def test_reactions_cancel_the_slave_forces():
     pulses later, as on the rigid wall): the contact force vector sums to zero over the body (every
     slave force has its reaction on the master nodes), both passes carry force, and the pair's force on the
     upper bar equals the force on its face nodes from the contact vector."""
-    from mpi4py import MPI
-
-    from fenics_plast.problem import load_problem
-    from fenics_plast.runner_explicit import build_explicit
-    problem = load_problem(REPO / "demos" / "taylor_rod_on_rod.toml",
-                           [*COARSE, f"contact.interface.penalty={ROD_PENALTY}", "contact.interface.friction=0.3"])
-    b = build_explicit(problem, MPI.COMM_WORLD)
-    s = b.solver
-    s.initialize()
-    dt = 0.5 * s.stable_dt()
-    for _ in range(8):
-        s.step(dt)
-    fcon = s.drivers.fcon.reshape(-1, 2)
+    b = stepped("taylor_rod_on_rod.toml", 8, *COARSE, f"contact.interface.penalty={ROD_PENALTY}",
+                "contact.interface.friction=0.3")
+    fcon = b.solver.drivers.fcon.reshape(-1, 2)
     pair = b.pairs["interface"]
     assert abs(pair.forward.normal_force()) > 0 and abs(pair.backward.normal_force()) > 0
     total = fcon.sum(axis=0)
@@ -271,17 +277,7 @@ def test_self_contact_at_rest_exerts_no_force():
     """A U at rest with the self-contact pair: its concave corners (the arms' inner faces meeting the base at
     right angles) and the facets next to each node are not contact (their normals do not face the node's):
     no contact force."""
-    from mpi4py import MPI
-
-    from fenics_plast.problem import load_problem
-    from fenics_plast.runner_explicit import build_explicit
-    problem = load_problem(REPO / "demos" / "self_contact_u.toml",
-                           ["initial_velocity.left.value=[0.0, 0.0]", "initial_velocity.right.value=[0.0, 0.0]"])
-    b = build_explicit(problem, MPI.COMM_WORLD)
-    s = b.solver
-    s.initialize()
-    dt = 0.5 * s.stable_dt()
-    for _ in range(5):
-        s.step(dt)
-    assert np.abs(s.drivers.fcon).max() == 0.0
+    b = stepped("self_contact_u.toml", 5, "initial_velocity.left.value=[0.0, 0.0]",
+                "initial_velocity.right.value=[0.0, 0.0]")
+    assert np.abs(b.solver.drivers.fcon).max() == 0.0
     assert b.pairs["inner"].max_penetration_run() == 0.0
