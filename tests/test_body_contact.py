@@ -61,9 +61,9 @@ def wall(tmp_path_factory):
 
 @pytest.mark.parametrize("friction", [0.0, 0.3])
 def test_rod_on_rod_is_the_bar_on_a_frictionless_wall(tmp_path, wall, friction):
-    """Two bars at -227 and +227 m/s, face to face: each is the bar on a frictionless rigid wall (length and
-    radius to 0.5 %, as the issue asks; measured 0.04 % and 0.004 % on this coarse mesh) with or without friction (the
-    faces do not slip on each other); the two bars mirror each other; the interface stays on the mid-plane
+    """Two bars at -227 and +227 m/s, face to face: each is the bar on a frictionless rigid wall (radius and
+    length to 0.5 %, as the issue asks; measured 0.04 % and 0.004 % on this coarse mesh) with or without
+    friction (the faces do not slip on each other); the two bars mirror each other; the interface stays on the mid-plane
     to within the penalty's penetration; the energy balances to 1 %; the pair's forces sum to zero over the
     two bodies (no tool work, no external work)."""
     out = tmp_path / "out"
