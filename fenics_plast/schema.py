@@ -320,7 +320,8 @@ SCHEMA: dict[str, Table] = {
     "tools": _tools_table(),
     "contact": Table(
         "Contact pairs, one table per name: the nodes of a facet group of the body against a master surface, "
-        "a rigid tool or (explicit) another facet group of the body (penalty, nodal rule).",
+        "a rigid tool or a facet group of the body (another body's; its own: self-contact, explicit) "
+        "(penalty, nodal rule).",
         collection=True, keys={
             "tool": Key("str", OPTIONAL, "Name of a [tools.<name>] table: the master surface is that rigid "
                         "tool. Exactly one of tool and master."),
