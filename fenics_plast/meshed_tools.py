@@ -49,35 +49,38 @@ def read_surface(path, group: str, dim: int, comm, scene_dir=None):
     empty or holds elements other than linear lines (2-D) or triangles and quadrangles (3-D)."""
     import gmsh
 
-    from fenics_plast.geo_screen import GeoScreenError, screen
+    from fenics_plast.geo_screen import GeoScreenError
+    from fenics_plast.gmsh_session import gmsh_session
     path = Path(path)
     error, surface = None, None
     if comm.rank == 0:
-        gmsh.initialize()
         try:
-            gmsh.option.setNumber("General.Terminal", 0)
-            gmsh.onelab.clear()     # ONELAB outlives finalize: another file's parameters would stick
-            if not path.is_file():
-                raise SceneError(f"file {path} not found")
-            if path.suffix.lower() not in (".geo", ".msh"):
-                raise SceneError(f"file {path}: must end in .geo or .msh")
-            if path.suffix.lower() == ".geo":
-                screen(path, scene_dir)
-            gmsh.open(str(path))
-            if path.suffix.lower() == ".geo":
-                gmsh.model.geo.synchronize()
-                gmsh.model.mesh.generate(dim - 1)
-            surface = _group_facets(gmsh, path, group, dim)
+            with gmsh_session():
+                surface = _read_group(gmsh, path, group, dim, scene_dir)
         except (SceneError, GeoScreenError) as e:
             error = str(e)
         except Exception as e:  # noqa: BLE001 - gmsh raises plain Exception with its last error
             error = f"Gmsh cannot read {path.name}: {e}"
-        finally:
-            gmsh.finalize()
     error, surface = comm.bcast((error, surface), root=0)
     if error is not None:
         raise SceneError(error)
     return surface
+
+
+def _read_group(gmsh, path, group, dim, scene_dir):
+    """The facets of ``group`` in the Gmsh file ``path`` (a .geo screened and meshed), Gmsh running."""
+    from fenics_plast.geo_screen import screen
+    if not path.is_file():
+        raise SceneError(f"file {path} not found")
+    if path.suffix.lower() not in (".geo", ".msh"):
+        raise SceneError(f"file {path}: must end in .geo or .msh")
+    if path.suffix.lower() == ".geo":
+        screen(path, scene_dir)
+    gmsh.open(str(path))
+    if path.suffix.lower() == ".geo":
+        gmsh.model.geo.synchronize()
+        gmsh.model.mesh.generate(dim - 1)
+    return _group_facets(gmsh, path, group, dim)
 
 
 def _group_facets(gmsh, path, group, dim):

@@ -20,6 +20,7 @@ import gmsh
 from dolfinx.io import gmshio
 
 from .geo_screen import MESH_DIR, GeoScreenError, screen
+from .gmsh_session import gmsh_session
 from .schema import default, is_cell_count
 
 
@@ -37,10 +38,7 @@ def mesh_from_geo(comm, name: str, parameters: dict, gdim: int = 2):
         screen(path)
     except GeoScreenError as e:
         raise MeshError(str(e)) from None
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.onelab.clear()
+    with gmsh_session():
         tag_ids = {}
         if comm.rank == 0:
             for key, value in parameters.items():
@@ -54,8 +52,6 @@ def mesh_from_geo(comm, name: str, parameters: dict, gdim: int = 2):
             gmsh.model.add(name)
         tag_ids = comm.bcast(tag_ids, root=0)
         mesh, cell_tags, facet_tags = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=gdim)
-    finally:
-        gmsh.finalize()
     mesh.name = name
     cell_tags.name = "cell_tags"
     facet_tags.name = "facet_tags"
@@ -178,14 +174,11 @@ def estimate_cells(path, values: dict, gdim: int, large: int = 64) -> float | No
 
     def scaled(s):
         return {**values, **{k: max(1, round(c / s)) for k, c in big.items()}}
-    gmsh.initialize()
     try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        n1, n2 = _trial_cells(path, scaled(s1), gdim), _trial_cells(path, scaled(2 * s1), gdim)
+        with gmsh_session():
+            n1, n2 = _trial_cells(path, scaled(s1), gdim), _trial_cells(path, scaled(2 * s1), gdim)
     except Exception:  # noqa: BLE001 - gmsh raises plain Exception; the real meshing reports it
         return None
-    finally:
-        gmsh.finalize()
     if n1 <= 0 or n2 <= 0:
         return None
     power = min(max(math.log2(n1 / n2), 0.0), float(gdim))
@@ -255,11 +248,7 @@ def mesh_from_file(comm, path, parameters=None, refine=default("mesh.refine"), g
     if gdim not in (2, 3):
         raise ValueError(f"gdim must be 2 or 3, got {gdim}")
     region = "surface" if gdim == 2 else "volume"
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.onelab.clear()     # ONELAB outlives finalize: another file's parameter of the same name would stick
-        gmsh.logger.start()
+    with gmsh_session(log=True):
         error, groups = None, {}
         if comm.rank == 0:
             try:
@@ -304,9 +293,6 @@ def mesh_from_file(comm, path, parameters=None, refine=default("mesh.refine"), g
         if error is not None:
             raise MeshError(error)
         mesh, cell_tags, facet_tags = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=gdim)
-    finally:
-        gmsh.logger.stop()
-        gmsh.finalize()
     mesh.name = path.stem
     cell_tags.name = "cell_tags"
     facet_tags.name = "facet_tags"

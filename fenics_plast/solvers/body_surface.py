@@ -79,8 +79,7 @@ class BodySurface:
     collective construction. ``vertex_nodes`` (nv,) the global node of each surface vertex, ``surface`` the
     :class:`~fenics_plast.solvers.surface_gaps.FacetSurface` at the last :meth:`move`."""
 
-    has_ufl_gap = False
-    path = None                         # the solvers' "tool" interface: it does not move along a path
+    path = None     # as a "tool" of ExplicitContactPair: no path, so no translation (its ``fixed``)
 
     def __init__(self, V, X, facet_tags, tag, name=None):
         comm = V.mesh.comm
@@ -179,16 +178,57 @@ class BodySurface:
         self._sum(R)
         _add_rows(R, self.rows, self.dofs, fcon)
 
-    def gap_np(self, x, t=None):
-        """(g (n,), N (n, dim)) of positions x (n, dim) [mm] to the surface as last moved."""
-        n = len(x)
-        g, N = np.empty(n), np.empty((n, self.dim))
-        nearest_points(self.surface, x, np.full(n, -1, np.int64), g, N, np.empty(n, np.int64),
-                       np.empty((n, self.dim)))
-        return g, N
 
-    def translation(self, t, use_ufl=False):
-        return np.zeros(self.dim)
+class TwoPassPair:
+    """A contact pair between two facet groups of the body taken both ways: ``forward`` (the group's nodes
+    against the master's facets) and ``backward`` (the master's nodes against the group's facets), passes
+    of the same law and penalty (the explicit solver's
+    :class:`~fenics_plast.solvers.explicit_contact.ExplicitContactPair`, the static solver's
+    :class:`~fenics_plast.solvers.static_surface_contact.SurfaceContactTerm`). Reports as one pair: forces on
+    the group's side (each pass's forces on its slaves, and the reactions of the other's), energies and
+    penetrations of both (the methods a solver's passes have). Collective methods, as the passes'."""
+
+    def __init__(self, forward, backward):
+        self.forward, self.backward = forward, backward
+        self.name, self.penalty = forward.name, forward.penalty
+
+    def force(self):
+        """Force [N] (dim,) on the group's nodes' body from the master's: forward's forces on its slaves less
+        backward's (whose reactions act on the group's nodes)."""
+        return np.asarray(self.forward.force()) - np.asarray(self.backward.force())
+
+    def normal_force(self):
+        """sum A p over both passes [N] (each carries a share of the interface's force)."""
+        return self.forward.normal_force() + self.backward.normal_force()
+
+    def tangential_force(self):
+        """Tangential force [N] on the group's side: 2-D signed along forward's T (backward's T is opposite:
+        its share adds), 3-D the vector."""
+        if self.forward.dim == 3:
+            return np.asarray(self.forward.tangential_force()) - np.asarray(self.backward.tangential_force())
+        return self.forward.tangential_force() + self.backward.tangential_force()
+
+    def max_penetration(self):
+        return max(self.forward.max_penetration(), self.backward.max_penetration())
+
+    def max_penetration_run(self):
+        return max(self.forward.max_penetration_run(), self.backward.max_penetration_run())
+
+    def contact_work(self):
+        return self.forward.contact_work() + self.backward.contact_work()
+
+    def tool_work(self):
+        return 0.0
+
+    def impulse(self):
+        return np.asarray(self.forward.impulse()) - np.asarray(self.backward.impulse())
+
+    def stored_energy(self):
+        return self.forward.stored_energy() + self.backward.stored_energy()
+
+    def status(self):
+        a, b = self.forward.status(), self.backward.status()
+        return a[0] + b[0], a[1] + b[1]
 
 
 # ----------------------------------------------------------------------------------------------

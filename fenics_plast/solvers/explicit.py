@@ -89,7 +89,8 @@ from fenics_plast.solvers.fused_force_hex import HexGeometry, hex_folded_cells
 from fenics_plast.solvers import integrator as ti
 from fenics_plast.solvers import time_stepping
 from fenics_plast.solvers.cell_steps import CellSteps, cell_masses
-from fenics_plast.solvers.explicit_contact import ContactSet, TwoPassPair
+from fenics_plast.solvers.body_surface import TwoPassPair
+from fenics_plast.solvers.explicit_contact import ContactSet
 from fenics_plast.solvers.walls import RigidWalls
 
 
@@ -416,7 +417,7 @@ class ExplicitDynamics:
         nodes (:mod:`~fenics_plast.solvers.body_surface`); ``two_pass``: also the master group's nodes
         against the facets tagged ``tag``. Other arguments as :meth:`add_contact`. Returns the
         :class:`~fenics_plast.solvers.explicit_contact.ExplicitContactPair` (one pass) or
-        :class:`~fenics_plast.solvers.explicit_contact.TwoPassPair`. Lowers :meth:`stable_dt`. Collective."""
+        :class:`~fenics_plast.solvers.body_surface.TwoPassPair`. Lowers :meth:`stable_dt`. Collective."""
         self._before_start("contact pairs")
         options = dict(penalty=penalty, friction=friction, law=law, tangential_penalty=tangential_penalty)
         forward = self.contact.add(self.contact.surface(facet_tags, master_tag), facet_tags, tag, **options,

@@ -47,8 +47,8 @@ A master surface of the body (:class:`~fenics_plast.solvers.body_surface.BodySur
 step :meth:`ContactSet.update` moves it to the current positions, finds each slave node's nearest point,
 gives the kernel the gap, normal and that point's increment (the slip and the contact work are relative to
 it), and adds the reactions -w_a f_c to the master nodes; the springs count on both sides in the stable
-step; :class:`TwoPassPair` reports a pair taken both ways as one. Self-contact (the pair's own group as its
-master): each node searches only the facets that face it.
+step; :class:`~fenics_plast.solvers.body_surface.TwoPassPair` reports a pair taken both ways as one.
+Self-contact (the pair's own group as its master): each node searches only the facets that face it.
 """
 from __future__ import annotations
 
@@ -216,56 +216,6 @@ class ExplicitContactPair:
         slip = c.slip[self.sl] > 0.0
         tot = self._sum(np.array([on.sum(), slip.sum()], dtype=np.int64))
         return int(tot[0]), int(tot[1])
-
-
-class TwoPassPair:
-    """A contact pair between two facet groups of the body taken both ways: ``forward`` (the group's nodes
-    against the master's facets) and ``backward`` (the master's nodes against the group's facets), each an
-    :class:`ExplicitContactPair` of the same law and penalty. Reports as one pair: forces on the group's
-    side (each pass's forces on its slaves, and the reactions of the other's), energies and penetrations of
-    both. Collective methods, as the passes'."""
-
-    def __init__(self, forward, backward):
-        self.forward, self.backward = forward, backward
-        self.name, self.penalty = forward.name, forward.penalty
-
-    def force(self):
-        """Force [N] (dim,) on the group's nodes' body from the master's: forward's forces on its slaves less
-        backward's (whose reactions act on the group's nodes)."""
-        return np.asarray(self.forward.force()) - np.asarray(self.backward.force())
-
-    def normal_force(self):
-        """sum A p over both passes [N] (each carries a share of the interface's force)."""
-        return self.forward.normal_force() + self.backward.normal_force()
-
-    def tangential_force(self):
-        """Tangential force [N] on the group's side: 2-D signed along forward's T (backward's T is opposite:
-        its share adds), 3-D the vector."""
-        if self.forward.dim == 3:
-            return np.asarray(self.forward.tangential_force()) - np.asarray(self.backward.tangential_force())
-        return self.forward.tangential_force() + self.backward.tangential_force()
-
-    def max_penetration(self):
-        return max(self.forward.max_penetration(), self.backward.max_penetration())
-
-    def max_penetration_run(self):
-        return max(self.forward.max_penetration_run(), self.backward.max_penetration_run())
-
-    def contact_work(self):
-        return self.forward.contact_work() + self.backward.contact_work()
-
-    def tool_work(self):
-        return 0.0
-
-    def impulse(self):
-        return np.asarray(self.forward.impulse()) - np.asarray(self.backward.impulse())
-
-    def stored_energy(self):
-        return self.forward.stored_energy() + self.backward.stored_energy()
-
-    def status(self):
-        a, b = self.forward.status(), self.backward.status()
-        return a[0] + b[0], a[1] + b[1]
 
 
 class ContactSet:

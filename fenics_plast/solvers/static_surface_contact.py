@@ -32,7 +32,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from fenics_plast import dolfinx_compat as dc
-from fenics_plast.solvers.body_surface import BodySurface, tributary_areas
+from fenics_plast.solvers.body_surface import BodySurface, TwoPassPair, tributary_areas
 from fenics_plast.solvers.surface_gaps import nearest_points, segment_nearest, triangle_nearest
 from fenics_plast.solvers.tool_gaps import FLAGS
 
@@ -155,30 +155,10 @@ class SurfaceContactTerm:
         return self.comm.allreduce(local, op=MPI.MAX)
 
 
-class TwoPassTerms:
-    """A static contact pair between two facet groups taken both ways (``forward``: the group's nodes
-    against the master's facets; ``backward``: the master's against the group's), as one pair's reports."""
-
-    def __init__(self, forward, backward):
-        self.forward, self.backward = forward, backward
-        self.name, self.penalty = forward.name, forward.penalty
-
-    def force(self):
-        """Force [N] on the group's side: forward's on its slaves less backward's (whose reactions act on
-        the group's nodes)."""
-        return np.asarray(self.forward.force()) - np.asarray(self.backward.force())
-
-    def normal_force(self):
-        return self.forward.normal_force() + self.backward.normal_force()
-
-    def max_penetration(self):
-        return max(self.forward.max_penetration(), self.backward.max_penetration())
-
-
 def add_surface_contact(solver, facet_tags, tag, master_tag, penalty, two_pass=True, name=None):
     """The pair of the nodes tagged ``tag`` against the body's facets tagged ``master_tag`` (and, with
     ``two_pass``, back) as terms of the static ``solver`` (before its :meth:`setup`). Returns the
-    :class:`SurfaceContactTerm` or :class:`TwoPassTerms` (reports). Collective."""
+    :class:`SurfaceContactTerm` or :class:`~fenics_plast.solvers.body_surface.TwoPassPair` (reports). Collective."""
     Vc, _ = solver.displacement_space()
     X = Vc.tabulate_dof_coordinates()[:, :Vc.dofmap.index_map_bs]
     surfaces = {t: BodySurface(Vc, X, facet_tags, t) for t in ({master_tag, tag} if two_pass else {master_tag})}
@@ -188,7 +168,7 @@ def add_surface_contact(solver, facet_tags, tag, master_tag, penalty, two_pass=T
         return forward
     backward = SurfaceContactTerm(solver, facet_tags, master_tag, surfaces[tag], penalty, name)
     solver.terms.append(backward)
-    return TwoPassTerms(forward, backward)
+    return TwoPassPair(forward, backward)
 
 
 # ----------------------------------------------------------------------------------------------
