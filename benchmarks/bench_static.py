@@ -19,8 +19,10 @@ same instruments for all; cProfile adds ~3 % here), without XDMF. Per run:
   with the tangent), assembly (dolfinx's assemble_matrix, assemble_vector, apply_lifting and coefficient
   packing), factorisation (PETSc's MatLUFactor* events), triangular solves (MatSolve) and the rest of the
   linear work (SNES.solve less the callbacks and those two);
-* contact: the cost of assembling the scene's contact forms alone (Jacobian and residual, measured in this
-  process on the after tree, times the run's Jacobians and residuals), a part of "assembly";
+* contact: a tree with the compiled tool contact (``fenics_plast.solvers.static_tool_contact``): its terms' time
+  in the run's profile (not a part of "assembly"); a tree whose contact is UFL forms: the cost of assembling
+  those forms alone (Jacobian and residual, measured in this process, times the run's Jacobians and
+  residuals), a part of "assembly";
 * solve [s]: the load stepping (``StaticSolver.run``); process [s]: the whole CLI process, start to exit;
   the numeric and symbolic factorisation counts and the maximum punch force (or force) of each column.
 
@@ -116,6 +118,9 @@ def profile_times(path: Path) -> dict:
         assembly=tot(lambda k: k[0] == "~" and k[2] in assembly),
         snes=tot(lambda k: k[0] == "~" and "'solve' of 'petsc4py.PETSc.SNES'" in k[2]),
         solve=cum(lambda k: k[0].endswith(os.path.join("solvers", "static.py")) and k[2] == "run"),
+        # the compiled contact terms (a tree whose contact is forms has none: its cost is part of assembly)
+        contact=sum(v[3] for k, v in st.items() if k[2] in ("residual", "jacobian")
+                    and k[0].endswith(("static_tool_contact.py", "static_surface_contact.py"))),
     )
 
 
@@ -153,10 +158,12 @@ def run_cli(tree: Path, scene: str, sets: list, out: Path, ranks: int = 1, blas:
 
 
 def contact_cost(scene: str, sets: list) -> tuple[float, float]:
-    """(s per Jacobian, s per residual) of the scene's contact forms alone, on this tree (in process)."""
+    """(s per Jacobian, s per residual) of the scene's tool contact assembled as UFL forms (the route of the trees
+    before the compiled contact, where it is a part of assembly), on this tree (in process)."""
     from mpi4py import MPI
     import dolfinx.fem.petsc as fpetsc
     from dolfinx import fem
+    from fenics_plast.contact import PenaltyContact
     from fenics_plast.problem import load_problem
     from fenics_plast.runner_static import build_static
     overrides = [sets[i + 1] for i in range(0, len(sets), 2) if sets[i] == "--set"]
@@ -164,8 +171,12 @@ def contact_cost(scene: str, sets: list) -> tuple[float, float]:
     s = b.solver
     if b.contact is None:
         return 0.0, 0.0
-    J = fem.form(b.contact.jacobian())
-    R = fem.form(b.contact.residual())
+    forms = PenaltyContact(s, compiled=False)
+    for p in b.contact.pairs:
+        forms.add_pair(p.tool, p.facet_tags, p.tag, penalty=p.penalty, friction=p.friction, law=p.law,
+                       tangential_penalty=p.tangential_penalty)
+    J = fem.form(forms.jacobian())
+    R = fem.form(forms.residual())
     A, vec = fpetsc.create_matrix(J), fpetsc.create_vector(R)
     tj, tr = [], []
     for _ in range(5):
@@ -209,8 +220,10 @@ def convergence_orders(scene: str) -> list[float]:
 
 
 def per_iteration_row(tag, r, contact):
+    """One column's row; contact: the compiled terms' time of the run's profile, else (a tree with contact forms)
+    the forms' cost ``contact`` (s per Jacobian, s per residual) times the run's Jacobians and residuals."""
     n = max(r["newton"], 1)
-    c = contact[0] * r["jacobians"] + contact[1] * r["residuals"]
+    c = r.get("contact") or contact[0] * r["jacobians"] + contact[1] * r["residuals"]
     ms = lambda t: f"{1e3 * t / n:8.1f}"      # noqa: E731
     return (f"  {tag:17s} {r['dofs']:7d} {r['newton']:6d} {r['jacobians']:5d} {ms(r['material'])} "
             f"{ms(r['assembly'])} {ms(c)} {ms(r['factorisation'])} {ms(r['triangular'])} "
@@ -219,7 +232,8 @@ def per_iteration_row(tag, r, contact):
 
 HEADER = (f"  {'':17s} {'dofs':>7s} {'newton':>6s} {'jacs':>5s} {'material':>8s} {'assembly':>8s} "
           f"{'contact':>8s} {'factor':>8s} {'tri-solve':>8s} {'other-lin':>8s} {'solve[s]':>7s} {'process[s]':>8s}"
-          "\n  (per Newton iteration in ms; contact is a part of assembly)")
+          "\n  (per Newton iteration in ms; contact: the compiled contact terms, or the contact forms' part of "
+          "assembly)")
 
 
 def main():

@@ -1,4 +1,9 @@
-"""Frictional penalty contact of the deformable body against analytic rigid tools (seed eqs. 16-25).
+"""Frictional penalty contact of the deformable body against rigid tools in the static solver (seed eqs. 16-25).
+
+Two routes, the same numbers: :class:`PenaltyContact` assembles each pair compiled, node by node
+(:class:`fenics_plast.solvers.static_tool_contact.ToolContactTerm`, the default: ``compiled=True``), or as the
+UFL forms of :class:`ContactPair` below (``compiled=False``), which are the **definition** the compiled route
+is held to (``tests/test_static_tool_contact.py``: residual, Jacobian, forces and Newton iterations).
 
 Tools (:mod:`fenics_plast.tools`: :class:`~fenics_plast.tools.Plane`, ``Circle``, ``Profile``) are
 rigid bodies that only translate, along a path of the solver's load factor (the ``fem.Constant``
@@ -107,24 +112,66 @@ def nodal_rule(mesh):
     raise ValueError(f"no nodal contact rule for {name} cells")
 
 
+def _check_pair(tool, gdim, penalty, friction, law, tangential_penalty):
+    """ValueError for a pair's argument out of range or a tool of another dimension than the body's."""
+    if law not in LAWS:
+        raise ValueError(f"contact law must be one of {LAWS}, got {law!r}")
+    if not penalty > 0:
+        raise ValueError(f"penalty must be > 0, got {penalty}")
+    if not friction >= 0:
+        raise ValueError(f"friction coefficient must be >= 0, got {friction}")
+    if tangential_penalty is not None and not tangential_penalty > 0:
+        raise ValueError(f"tangential penalty must be > 0, got {tangential_penalty}")
+    if getattr(tool, "dim", 2) != gdim:
+        raise ValueError(f"contact pair {tool.name!r}: a {getattr(tool, 'dim', 2)}-D tool on a {gdim}-D body")
+
+
+def pair_nodes(solver, facet_tags, tag, gdim):
+    """(reference positions X (n, gdim) [mm], their displacement entries in the solver's w (n, gdim), their
+    blocks (n,) in the solver's displacement space) of the owned nodes of the facets tagged ``tag``."""
+    Vc, vmap = solver.displacement_space()
+    blocks = fem.locate_dofs_topological(Vc, solver.mesh.topology.dim - 1, facet_tags.find(tag))
+    blocks = np.asarray(blocks[blocks < Vc.dofmap.index_map.size_local], dtype=np.int64)
+    X = np.ascontiguousarray(Vc.tabulate_dof_coordinates()[blocks, :gdim])
+    idx = np.ascontiguousarray(np.asarray(vmap).reshape(-1, gdim)[blocks])
+    return X, idx, blocks
+
+
+def keep_committed_gaps(tool, contact, X, idx, lam) -> None:
+    """Predictor of an increment to load factor ``lam``: move each node (reference positions X (n, dim) [mm],
+    entries idx (n, dim) of the solver's ``w``, owned) that was in contact with ``tool`` at the last commit
+    of ``contact`` (gap g_n < 0) along the tool's normal N at the predicted position, by g_n - g [mm], so that
+    its predicted gap g is its committed gap again (the caller updates the ghosts).
+
+    Why: the extrapolated predictor moves the contact nodes along a chord of their path over the
+    tool; on a curved tool (the punch) the chord's error (up to 0.05 mm per increment on the 3-D
+    punch) exceeds the penalty penetration (~1 um), so most contact nodes start the increment just
+    outside the tool. There they have no contact stiffness, Newton's first step pushes them
+    millimetres into the tool, and the line search crawls in tiny steps until they are in contact
+    again (measured: the 3-D quarter punch's late increments took 9 to 15 iterations, 5 to 7 with
+    this predictor)."""
+    if not len(X):
+        return
+    w = contact.solver.w.x.array
+    g_n, _ = tool.gap_np(X + contact.w_c.x.array[idx], float(contact.lam_c.value))
+    on = g_n < 0.0
+    if on.any():
+        g, N = tool.gap_np(X[on] + w[idx[on]], lam)
+        w[idx[on]] += (g_n[on] - g)[:, None] * N
+
+
 # ----------------------------------------------------------------------------------------------
 # contact pairs
 
 
 class ContactPair:
     """One tool against the body facets tagged ``tag``, with its own normal penalty [N/mm^3],
-    tangential penalty [N/mm^3], friction coefficient and law (UFL forms + nodal history).
+    tangential penalty [N/mm^3], friction coefficient and law (UFL forms + nodal history): the definition
+    of the compiled :class:`~fenics_plast.solvers.static_tool_contact.ToolContactTerm`.
     Made by :meth:`PenaltyContact.add_pair` / :meth:`PenaltyContact.add_tool` (which hold the defaults)."""
 
     def __init__(self, contact, tool, facet_tags, tag, *, penalty, friction, law, tangential_penalty=None):
-        if law not in LAWS:
-            raise ValueError(f"contact law must be one of {LAWS}, got {law!r}")
-        if not penalty > 0:
-            raise ValueError(f"penalty must be > 0, got {penalty}")
-        if not friction >= 0:
-            raise ValueError(f"friction coefficient must be >= 0, got {friction}")
-        if tangential_penalty is not None and not tangential_penalty > 0:
-            raise ValueError(f"tangential penalty must be > 0, got {tangential_penalty}")
+        _check_pair(tool, contact.solver.kin.gdim, penalty, friction, law, tangential_penalty)
         self.contact = contact
         self.tool = tool
         self.tag = tag
@@ -141,9 +188,6 @@ class ContactPair:
         self.tangential_penalty_c = fem.Constant(mesh, PETSc.ScalarType(self.tangential_penalty))
         gdim = s.kin.gdim
         self.gdim = gdim
-        if getattr(tool, "dim", 2) != gdim:
-            raise ValueError(f"contact pair {tool.name!r}: a {getattr(tool, 'dim', 2)}-D tool on a "
-                             f"{gdim}-D body")
         self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags, metadata=nodal_rule(mesh))(tag)
         # history: [t_n (gdim), N_n (gdim), p_n] per node
         self.hist_size = 2 * gdim + 1
@@ -271,6 +315,17 @@ class ContactPair:
         b.copy(dc.petsc_vec(self.hist))
         self.hist.x.scatter_forward()
 
+    def history(self):
+        """(values, keys) of the committed history (t_n, N_n, p_n) at the owned nodes (checkpoints)."""
+        from fenics_plast.checkpoint import dof_keys
+        n = self.H.dofmap.index_map.size_local * self.hist_size
+        return self.hist.x.array[:n].copy(), dof_keys(self.H)[:n]
+
+    def load_history(self, values):
+        """Restore :meth:`history`'s values."""
+        self.hist.x.array[: len(values)] = values
+        self.hist.x.scatter_forward()
+
     def status(self):
         """(nodes in contact, nodes slipping) at the current state, all ranks (frictionless: all slip)."""
         b = fpetsc.assemble_vector(self._status)
@@ -358,40 +413,15 @@ class ContactPair:
 
     def _owned_nodes(self):
         """(reference positions (n, gdim) [mm], their displacement entries in the solver's w (n, gdim)) of
-        the owned nodes of the pair's facets; built on first use."""
+        the owned nodes of the pair's facets (:func:`pair_nodes`); built on first use."""
         if not hasattr(self, "_nodes"):
-            s = self.contact.solver
-            Vc, vmap = s.displacement_space()
-            facets = self.facet_tags.find(self.tag)
-            blocks = fem.locate_dofs_topological(Vc, s.mesh.topology.dim - 1, facets)
-            blocks = blocks[blocks < Vc.dofmap.index_map.size_local]
-            X = Vc.tabulate_dof_coordinates()[blocks, :self.gdim]
-            self._nodes = (X, np.asarray(vmap).reshape(-1, self.gdim)[blocks])
-            self._node_blocks = blocks
+            X, idx, self._node_blocks = pair_nodes(self.contact.solver, self.facet_tags, self.tag, self.gdim)
+            self._nodes = (X, idx)
         return self._nodes
 
     def keep_gaps(self, lam) -> None:
-        """Predictor of an increment to load factor ``lam``: move each owned node of the pair that was in
-        contact at the last commit (gap g_n < 0) along the tool's normal N at the predicted position, by
-        g_n - g [mm], so that its predicted gap g is its committed gap again (the solver's ``w``, owned
-        entries; the caller updates the ghosts).
-
-        Why: the extrapolated predictor moves the contact nodes along a chord of their path over the
-        tool; on a curved tool (the punch) the chord's error (up to 0.05 mm per increment on the 3-D
-        punch) exceeds the penalty penetration (~1 um), so most contact nodes start the increment just
-        outside the tool. There they have no contact stiffness, Newton's first step pushes them
-        millimetres into the tool, and the line search crawls in tiny steps until they are in contact
-        again (measured: the 3-D quarter punch's late increments took 9 to 15 iterations, 5 to 7 with
-        this predictor)."""
-        s = self.contact.solver
-        X, idx = self._owned_nodes()
-        if not len(X):
-            return
-        g_n, _ = self.tool.gap_np(X + self.contact.w_c.x.array[idx], float(self.contact.lam_c.value))
-        on = g_n < 0.0
-        if on.any():
-            g, N = self.tool.gap_np(X[on] + s.w.x.array[idx[on]], lam)
-            s.w.x.array[idx[on]] += (g_n[on] - g)[:, None] * N
+        """The contact predictor (:func:`keep_committed_gaps`)."""
+        keep_committed_gaps(self.tool, self.contact, *self._owned_nodes(), lam)
 
     def max_penetration(self):
         """Largest -g over the pair's owned nodes, all ranks [mm] (0 if none penetrates)."""
@@ -415,11 +445,13 @@ class PenaltyContact:
     ``penalty``, ``friction``, ``law`` and ``tangential_penalty`` given here are the contact-wide
     values used by :meth:`add_tool` (``PenaltyContact(solver, eps, friction=0.15)`` then
     ``add_tool(Circle((0.0, -50.8), 50.8, path=...), facet_tags, lower_tag)``). Friction and law
-    default to the schema's (:func:`fenics_plast.schema.default`).
+    default to the schema's (:func:`fenics_plast.schema.default`). ``compiled``: the pairs are
+    :class:`~fenics_plast.solvers.static_tool_contact.ToolContactTerm` (the solver's terms), else
+    :class:`ContactPair` (forms): see the module docstring.
     """
 
     def __init__(self, solver, penalty=None, friction=default("contact.*.friction"), law=default("contact.*.law"),
-                 tangential_penalty=None):
+                 tangential_penalty=None, compiled=True):
         if law not in LAWS:
             raise ValueError(f"contact law must be one of {LAWS}, got {law!r}")
         if penalty is not None and not penalty > 0:
@@ -441,7 +473,8 @@ class PenaltyContact:
         self.w_c.x.array[:] = solver.w.x.array
         self.u_c = ufl.split(self.w_c)[0] if solver.mixed else self.w_c
         self.lam_c = fem.Constant(mesh, PETSc.ScalarType(solver.lam))
-        self.pairs: list[ContactPair] = []
+        self.compiled = bool(compiled)
+        self.pairs: list = []
         self._attached = False
 
     def add_pair(self, tool, facet_tags, tag, *, penalty, friction=default("contact.*.friction"),
@@ -451,8 +484,14 @@ class PenaltyContact:
         penalty [N/mm^3] (None: the normal penalty).  Call before :meth:`attach`."""
         if self._attached:
             raise RuntimeError("add contact pairs before attach()")
-        pair = ContactPair(self, tool, facet_tags, tag, penalty=penalty, friction=friction, law=law,
-                           tangential_penalty=tangential_penalty)
+        if self.compiled:
+            from fenics_plast.solvers.static_tool_contact import ToolContactTerm
+            _check_pair(tool, self.solver.kin.gdim, penalty, friction, law, tangential_penalty)
+            pair = ToolContactTerm(self, tool, facet_tags, tag, penalty=penalty, friction=friction, law=law,
+                                   tangential_penalty=tangential_penalty)
+        else:
+            pair = ContactPair(self, tool, facet_tags, tag, penalty=penalty, friction=friction, law=law,
+                               tangential_penalty=tangential_penalty)
         self.pairs.append(pair)
         return pair
 
@@ -464,9 +503,11 @@ class PenaltyContact:
                              law=self.law, tangential_penalty=self.tangential_penalty)
 
     def residual(self):
+        """The UFL residual of the pairs assembled as forms (``compiled=False``), or None."""
         R = None
         for p in self.pairs:
-            R = p.R if R is None else R + p.R
+            if isinstance(p, ContactPair):
+                R = p.R if R is None else R + p.R
         return R
 
     def trial_function(self):
@@ -483,10 +524,14 @@ class PenaltyContact:
         return ufl.derivative(R, self.solver.w, self.trial_function())
 
     def attach(self):
-        """Add the contact residual and its consistent Jacobian to the solver."""
+        """Add the contact residual and its consistent Jacobian to the solver: the compiled pairs as its
+        terms, the forms' pairs as forms."""
         if self._attached:
             return
-        self.solver.add_residual(self.residual(), self.jacobian())
+        if self.compiled:
+            self.solver.terms.extend(self.pairs)
+        elif self.pairs:
+            self.solver.add_residual(self.residual(), self.jacobian())
         self.solver.predictors.append(self.keep_gaps)
         self._attached = True
 
@@ -507,30 +552,29 @@ class PenaltyContact:
         """The contact history at the last commit (collective; see fenics_plast.checkpoint): the owned
         entries of the state w_c and of each pair's nodal history (t_n, N_n, p_n) as ``hist<i>``,
         keyed by node/cell, and the load factor lam_c."""
-        from fenics_plast.checkpoint import owned_keyed
+        from fenics_plast.checkpoint import Keyed, owned_keyed
         d = dict(w_c=owned_keyed(self.w_c, self.solver.checkpoint_keys()[0]), lam_c=float(self.lam_c.value))
         for i, p in enumerate(self.pairs):
-            d[f"hist{i}"] = owned_keyed(p.hist)
+            d[f"hist{i}"] = Keyed(*p.history())
         return d
 
     def load_state(self, d):
         """Restore :meth:`state_dict` (collective; same mesh and tools)."""
         from fenics_plast import checkpoint as ck
         ck.require(d, ["w_c", "lam_c"] + [f"hist{i}" for i in range(len(self.pairs))], "contact")
-        funs = [(self.w_c, d["w_c"], self.solver.checkpoint_keys()[0])]
-        funs += [(p.hist, d[f"hist{i}"], ck.dof_keys(p.hist.function_space)) for i, p in enumerate(self.pairs)]
-        why, vals = None, []
+        dm = self.w_c.function_space.dofmap
+        why, w_c, hists = None, None, []
         try:
-            for fun, table, keys in funs:
-                dm = fun.function_space.dofmap
-                vals.append(table.take(keys[: dm.index_map.size_local * dm.index_map_bs]))
+            w_c = d["w_c"].take(self.solver.checkpoint_keys()[0][: dm.index_map.size_local * dm.index_map_bs])
+            hists = [d[f"hist{i}"].take(p.history()[1]) for i, p in enumerate(self.pairs)]
         except ck.CheckpointError as e:
             why = str(e)
         ck.raise_on_any(self.comm, why)
-        for (fun, _, _), v in zip(funs, vals):
-            fun.x.array[: v.size] = v
-            fun.x.scatter_forward()
+        self.w_c.x.array[: w_c.size] = w_c
+        self.w_c.x.scatter_forward()
         self.lam_c.value = float(d["lam_c"])
+        for p, h in zip(self.pairs, hists):
+            p.load_history(h)
 
     # -- diagnostics -------------------------------------------------------------------------
     def nodal_gaps(self, pair):

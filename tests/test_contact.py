@@ -26,6 +26,7 @@ from fenics_plast.contact import PenaltyContact
 from fenics_plast.kinematics import Kinematics
 from fenics_plast.material import Material
 from fenics_plast.solvers.static import StaticSolver
+from fenics_plast.solvers.static_tool_contact import ToolContactTerm
 from fenics_plast.tools import Plane, piecewise_path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -35,9 +36,9 @@ EPS = 1e4          # normal and tangential penalty of the block tests [N/mm^3]
 D = 0.01           # compression of the block by the wall [mm]
 
 
-def block(law, mu=MU, sx=0.05, nx=4, ny=2):
+def block(law, mu=MU, sx=0.05, nx=4, ny=2, compiled=True):
     """Elastic 2 x 1 block (plane strain), top fixed; the wall z = 0 moves up by D (lam 0 -> 0.5),
-    then sideways by sx (lam 0.5 -> 1)."""
+    then sideways by sx (lam 0.5 -> 1); the contact compiled (default) or as forms (its definition)."""
     comm = MPI.COMM_WORLD
     msh = dm.create_rectangle(comm, [np.array([0.0, 0.0]), np.array([2.0, 1.0])], [nx, ny],
                               dm.CellType.quadrilateral)
@@ -54,7 +55,7 @@ def block(law, mu=MU, sx=0.05, nx=4, ny=2):
     s.add_dirichlet(0, ft, 2, 0.0)
     s.add_dirichlet(1, ft, 2, 0.0)
     wall = Plane((0.0, 0.0), (0.0, 1.0), path=piecewise_path([0.0, 0.5, 1.0], [0.0, 0.0, sx], [0.0, D, D]))
-    c = PenaltyContact(s, EPS, friction=mu, law=law)
+    c = PenaltyContact(s, EPS, friction=mu, law=law, compiled=compiled)
     pair = c.add_tool(wall, ft, 1)
     c.attach()
     s.setup()
@@ -118,6 +119,10 @@ def test_block_slips_at_mu_times_normal_force(law):
 
 def _bottom_nodes(sol, pair):
     """(x-sorted) nodal t_x (committed history) and u_x on the wall side y = 0, owned values."""
+    if isinstance(pair, ToolContactTerm):
+        on = np.isclose(pair.X[:, 1], 0.0)
+        o = np.argsort(pair.X[on, 0])
+        return pair.t_n[on, 0][o], sol.w.x.array[pair.idx[on, 0]][o]
     H = pair.H
     XH = H.tabulate_dof_coordinates()
     nH = H.dofmap.index_map.size_local
@@ -171,14 +176,23 @@ def test_block_sticks_below_the_limit(law):
 
 
 def _contact_matrix(c):
-    A = fpetsc.assemble_matrix(fem.form(c.jacobian()))
-    A.assemble()
-    M = A.convert("dense").getDenseArray().copy()      # petsc4py 3.22: a view of a temporary
+    """The contact Jacobian at the current state, dense (serial): the forms' or the compiled pairs' blocks."""
+    if not c.compiled:
+        A = fpetsc.assemble_matrix(fem.form(c.jacobian()))
+        A.assemble()
+        return A.convert("dense").getDenseArray().copy()      # petsc4py 3.22: a view of a temporary
+    n = len(c.solver.w.x.array)
+    M = np.zeros((n, n))
+    for pair in c.pairs:
+        pair.evaluate()
+        for rows, K in zip(pair.idx, pair.K):
+            M[np.ix_(rows, rows)] -= K
     return M
 
 
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "forms"])
 @pytest.mark.parametrize("law", ["quasi-coulomb", "coulomb"])
-def test_jacobian_symmetry(law):
+def test_jacobian_symmetry(law, compiled):
     """Assemble the contact Jacobian at a converged state with stick AND slip nodes."""
     found = {}
 
@@ -192,7 +206,7 @@ def test_jacobian_symmetry(law):
 
     if MPI.COMM_WORLD.size > 1:
         pytest.skip("dense matrix check in serial")
-    run_block(law, sx=0.05, increments=60, max_increment=0.02, extra=grab)
+    run_block(law, sx=0.05, increments=60, max_increment=0.02, extra=grab, compiled=compiled)
     assert "A" in found, "no converged state with both stick and slip nodes"
     A = found["A"]
     asym = np.linalg.norm(A - A.T) / np.linalg.norm(A)

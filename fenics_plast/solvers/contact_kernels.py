@@ -25,13 +25,13 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
+from fenics_plast.solvers.contact_law import COULOMB, QUASI_COULOMB, node_law  # noqa: F401 (the laws' codes)
 from fenics_plast.solvers.tool_gaps import FLAGS, gap_2d, gap_3d
 
 _njit = numba.njit(cache=True, **FLAGS)
 
 GENERIC = -1                    # a tool whose gap and normal come from its gap_np (any other kind: a shape code)
 BODY = -2                       # a master surface of the body: gap, normal and the master point's increment given
-COULOMB, QUASI_COULOMB = 0, 1
 
 
 class ContactArrays(NamedTuple):
@@ -72,10 +72,10 @@ def contact_forces(u, du, dt, c, trans_old, trans_new, fcon):
     eps, eps_t normal and tangential penalties [N/mm^3], mu, law COULOMB | QUASI_COULOMB;
     trans_old, trans_new (npairs, 2) tool translation at t_n, t_{n+1} [mm].
 
-    p = eps <-g> [MPa]; trial tangential traction t_tr = T . t_n - eps_t T . (du - dd) (T = (N_y,
-    -N_x), t_n the traction vector of the last step, dd the tool's translation over the step),
-    t = clamp(t_tr, -mu p_b, mu p_b); coulomb: N, p_b current, quasi-coulomb: N, p_b of the last
-    step (history) and t = 0 out of contact. Force on the body fc = area (p N + t T) [N].
+    The law at each node is :func:`~fenics_plast.solvers.contact_law.node_law` (the one of both solvers):
+    p = eps <-g> [MPa], the trial tangential traction from the last step's traction t_n and the slip
+    s = du - dd (dd the tool's translation over the step), returned to |t| <= mu p_b (coulomb: N, p_b current;
+    quasi-coulomb: N, p_b of the last step, t = 0 out of contact). Force on the body fc = area (p N + t) [N].
 
     History (t_hist (nc,2) [MPa], N_hist (nc,2), p_hist (nc,) [MPa], t_scal (nc,) [MPa]), the status
     slip (nc,) (1: in contact and slipping, i.e. |t_tr| > mu p_b or frictionless) and fc (nc, 2) [N]
@@ -92,6 +92,8 @@ def contact_forces(u, du, dt, c, trans_old, trans_new, fcon):
     eps, eps_t, mu, law, acc, pen = c.eps, c.eps_t, c.mu, c.law, c.acc, c.pen
     t_hist, N_hist, p_hist, t_scal, slip, fc = c.t_hist, c.N_hist, c.p_hist, c.t_scal, c.slip, c.fc
     nc = X.shape[0]
+    N, s, f, t = np.empty(2), np.empty(2), np.empty(2), np.empty(2)
+    no_dN, no_K = np.empty((2, 2)), np.empty((0, 0))
     for k in range(nc):
         fcon[cdofs[k, 0]] = 0.0
         fcon[cdofs[k, 1]] = 0.0
@@ -116,27 +118,21 @@ def contact_forces(u, du, dt, c, trans_old, trans_new, fcon):
             g, n = gap_2d(kd, params[pr], (x, y), (trans_new[pr, 0], trans_new[pr, 1]))
             nx = n[0]
             ny = n[1]
-        p = eps[pr] * (-g) if g < 0.0 else 0.0
-        sx = du[ix] - ddx
-        sy = du[iy] - ddy
-        t = 0.0
-        tx = 0.0
-        ty = 0.0
-        sl = 1.0 if g < 0.0 else 0.0
-        if mu[pr] > 0.0:
-            if law[pr] == COULOMB:
-                nfx, nfy, bound, active = nx, ny, mu[pr] * p, True
-            else:
-                nfx, nfy, bound, active = N_hist[k, 0], N_hist[k, 1], mu[pr] * p_hist[k], g < 0.0
-            tx = nfy
-            ty = -nfx
-            ttr = tx * t_hist[k, 0] + ty * t_hist[k, 1] - eps_t[pr] * (tx * sx + ty * sy)
-            if active:
-                t = min(max(ttr, -bound), bound)
-            sl = 1.0 if (g < 0.0 and active and abs(ttr) > bound) else 0.0
-        A = area[k]
-        fx = A * (p * nx + t * tx)
-        fy = A * (p * ny + t * ty)
+        N[0] = nx
+        N[1] = ny
+        s[0] = du[ix] - ddx
+        s[1] = du[iy] - ddy
+        tf0 = N_hist[k, 1]                # T of the friction's normal: coulomb N, quasi-coulomb N_hist
+        tf1 = -N_hist[k, 0]
+        if law[pr] == COULOMB:
+            tf0 = ny
+            tf1 = -nx
+        p, sl = node_law(g, N, no_dN, s, t_hist[k], N_hist[k], p_hist[k], area[k], eps[pr], eps_t[pr], mu[pr],
+                         law[pr], f, t, no_K)
+        sx = s[0]
+        sy = s[1]
+        fx = f[0]
+        fy = f[1]
         mx = 0.5 * (fc[k, 0] + fx)
         my = 0.5 * (fc[k, 1] + fy)
         acc[pr, 0] -= mx * sx + my * sy
@@ -148,12 +144,12 @@ def contact_forces(u, du, dt, c, trans_old, trans_new, fcon):
         fc[k, 1] = fy
         fcon[ix] += fx
         fcon[iy] += fy
-        t_hist[k, 0] = t * tx
-        t_hist[k, 1] = t * ty
+        t_hist[k, 0] = t[0]
+        t_hist[k, 1] = t[1]
         N_hist[k, 0] = nx
         N_hist[k, 1] = ny
         p_hist[k] = p
-        t_scal[k] = t
+        t_scal[k] = t[0] * tf0 + t[1] * tf1
         slip[k] = sl
         if -g > pen[pr]:
             pen[pr] = -g
@@ -168,17 +164,16 @@ def contact_forces_3d(u, du, dt, c, trans_old, trans_new, fcon):
     trans_old, trans_new (npairs, 3) [mm], t_hist (nc, 3) [MPa], N_hist (nc, 3), fc (nc, 3) [N],
     acc (npairs, 5) += (E_c, tool work, impulse x, y, z) [N mm, N mm, N s x 3].
 
-    p = eps <-g>; with the relative displacement increment s = du - dd and the normal N_f of the
-    tangent plane (coulomb: N now, bound mu p; quasi-coulomb: N_hist, bound mu p_hist, t = 0 out
-    of contact), P_T = I - N_f N_f^T: t_tr = P_T (t_n - eps_t s), t = t_tr if |t_tr| <= bound, else
-    bound t_tr / |t_tr| (return map on the norm; 2-D: T T^T = P_T, the same law).  t_hist gets the
+    The law of :func:`~fenics_plast.solvers.contact_law.node_law`: the trial traction P_T (t_n - eps_t s), s = du - dd,
+    returned on its norm to the bound (2-D: T T^T = P_T, the same law).  t_hist gets the
     vector t, t_scal its norm |t| [MPa]; slip, fc, fcon, N_hist, p_hist, pen as in 2-D.
     """
     X, cdofs, cpair, area, kind, params, gN = c.X, c.dofs, c.pair, c.area, c.kind, c.params, c.gN
     eps, eps_t, mu, law, acc, pen = c.eps, c.eps_t, c.mu, c.law, c.acc, c.pen
     t_hist, N_hist, p_hist, t_scal, slip, fc = c.t_hist, c.N_hist, c.p_hist, c.t_scal, c.slip, c.fc
     nc = X.shape[0]
-    N = np.empty(3)
+    N, s, f, t = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    no_dN, no_K = np.empty((3, 3)), np.empty((0, 0))
     for k in range(nc):
         for j in range(3):
             fcon[cdofs[k, j]] = 0.0
@@ -200,39 +195,14 @@ def contact_forces_3d(u, du, dt, c, trans_old, trans_new, fcon):
             g, n = gap_3d(kd, params[pr], x, (trans_new[pr, 0], trans_new[pr, 1], trans_new[pr, 2]))
             for j in range(3):
                 N[j] = n[j]
-        p = eps[pr] * (-g) if g < 0.0 else 0.0
-        s0 = du[cdofs[k, 0]] - dd0
-        s1 = du[cdofs[k, 1]] - dd1
-        s2 = du[cdofs[k, 2]] - dd2
-        t0 = 0.0
-        t1 = 0.0
-        t2 = 0.0
-        sl = 1.0 if g < 0.0 else 0.0
-        if mu[pr] > 0.0:
-            if law[pr] == COULOMB:
-                nf0, nf1, nf2, bound, active = N[0], N[1], N[2], mu[pr] * p, True
-            else:
-                nf0, nf1, nf2 = N_hist[k, 0], N_hist[k, 1], N_hist[k, 2]
-                bound, active = mu[pr] * p_hist[k], g < 0.0
-            q0 = t_hist[k, 0] - eps_t[pr] * s0
-            q1 = t_hist[k, 1] - eps_t[pr] * s1
-            q2 = t_hist[k, 2] - eps_t[pr] * s2
-            qn = q0 * nf0 + q1 * nf1 + q2 * nf2
-            q0 -= qn * nf0
-            q1 -= qn * nf1
-            q2 -= qn * nf2
-            norm = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
-            over = norm > bound
-            if active:
-                scale = bound / norm if over else 1.0
-                t0 = scale * q0
-                t1 = scale * q1
-                t2 = scale * q2
-            sl = 1.0 if (g < 0.0 and active and over) else 0.0
-        A = area[k]
-        f0 = A * (p * N[0] + t0)
-        f1 = A * (p * N[1] + t1)
-        f2 = A * (p * N[2] + t2)
+        s[0] = du[cdofs[k, 0]] - dd0
+        s[1] = du[cdofs[k, 1]] - dd1
+        s[2] = du[cdofs[k, 2]] - dd2
+        p, sl = node_law(g, N, no_dN, s, t_hist[k], N_hist[k], p_hist[k], area[k], eps[pr], eps_t[pr], mu[pr],
+                         law[pr], f, t, no_K)
+        s0, s1, s2 = s[0], s[1], s[2]
+        f0, f1, f2 = f[0], f[1], f[2]
+        t0, t1, t2 = t[0], t[1], t[2]
         m0 = 0.5 * (fc[k, 0] + f0)
         m1 = 0.5 * (fc[k, 1] + f1)
         m2 = 0.5 * (fc[k, 2] + f2)

@@ -72,7 +72,7 @@ def _hist_cols(dim):
     return 3 * dim + 3
 
 
-def _tool_kind(tool):
+def tool_kind(tool):
     """(kind, params) of the compiled gap: a :class:`~fenics_plast.tools.Tool`'s shape code and parameter
     vector, (BODY, empty) for a master surface of the body, or (GENERIC, empty) for any other tool, or a
     Tool subclass with a gap_np of its own."""
@@ -107,7 +107,7 @@ class ExplicitContactPair:
         self.tangential_penalty = float(tangential_penalty if tangential_penalty else penalty)
         self.friction = float(friction)
         self.law = law
-        self.kind, self.params = _tool_kind(tool)
+        self.kind, self.params = tool_kind(tool)
         self.fixed = getattr(tool, "path", True) is None       # a tools.Tool without a path does not move
         self.comm = s.comm
         mesh, V, bs, n = s.mesh, s.V, s.bs, s.n_own
