@@ -102,11 +102,13 @@ solver.add_dirichlet(1, facet_tags, tags["rim"], 0.0)
 # group, penalty, friction, law) builds g, N, p, the friction return map and the residual;
 # `attach()` adds the residual and its `ufl.derivative` to the solver (before `setup()` compiles
 # the forms). The scene's penalty, 20 700 N/mm³, is 0.3 E/t0 (penetration below 0.5 % of the
-# thickness).
+# thickness). These forms are the definition; `fenics-plast run` evaluates the same law compiled,
+# node by node (`PenaltyContact(solver)`, `compiled=True`: `fenics_plast.solvers.static_tool_contact`,
+# held to the forms by `tests/test_static_tool_contact.py`).
 
 # %%
 tools = {name: tool_of(name, spec) for name, spec in tl.items()}
-contact = PenaltyContact(solver)
+contact = PenaltyContact(solver, compiled=False)
 pairs = {name: contact.add_pair(tools[c.tool], facet_tags, tags[c.group], penalty=c.penalty, friction=c.friction,
                                 law=c.law, tangential_penalty=c.tangential_penalty)
          for name, c in problem.contact.items()}

@@ -216,7 +216,8 @@ print(f"max eqps {qmap.eqps.max():.4f}; FE vs material point: max relative diffe
 # %% [markdown]
 # ## 4. Contact and friction terms
 # A `PenaltyContact` adds to a solver's residual, for each rigid tool, the terms below
-# (x = X + u the current position, w the nodal weight 2πR, a nodal rule on the facets):
+# (x = X + u the current position, w the nodal weight 2πR, a nodal rule on the facets); with
+# `compiled=False` as UFL forms, their definition (runs evaluate them compiled, node by node):
 #
 #     g = (x − p(λ))·N,   p = ε⟨−g⟩,   t_tr = T·t_n − ε_T T·Δs,   t = clamp(t_tr, −μp, μp),
 #     R_c(v) = −∫ (p N + t T)·v w dA0.
@@ -231,7 +232,7 @@ eps, mu, delta, slide = 1.0e3, 0.3, 0.01, 0.01
 solver = StaticSolver(kin, Material(1000.0, 0.3), verbose=False)
 facets = dm.locate_entities_boundary(mesh, 1, lambda x: np.isclose(x[1], 0.0))
 bottom_tags = dm.meshtags(mesh, 1, np.sort(facets).astype(np.int32), np.full(len(facets), 1, np.int32))
-contact = PenaltyContact(solver, eps, friction=mu, law="quasi-coulomb")
+contact = PenaltyContact(solver, eps, friction=mu, law="quasi-coulomb", compiled=False)   # as forms
 wall = Plane(point=(0.0, 0.0), normal=(0.0, 1.0),       # path: load factors, then dx and dy at each [mm]
              path=piecewise_path([0.0, 0.5, 1.0], [0.0, 0.0, slide], [0.0, delta, delta]))
 pair = contact.add_tool(wall, bottom_tags, 1)

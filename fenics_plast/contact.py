@@ -81,6 +81,7 @@ from petsc4py import PETSc
 
 from fenics_plast import dolfinx_compat as dc
 from fenics_plast.schema import PENALTY_FACTOR, choices, default
+from fenics_plast.solvers.static_tool_contact import keep_committed_gaps, pair_nodes
 from fenics_plast.tools import TINY, default_penalty
 
 #: the friction laws: "coulomb" (p, N current), "quasi-coulomb" (p, N of the last commit)
@@ -122,42 +123,8 @@ def _check_pair(tool, gdim, penalty, friction, law, tangential_penalty):
         raise ValueError(f"friction coefficient must be >= 0, got {friction}")
     if tangential_penalty is not None and not tangential_penalty > 0:
         raise ValueError(f"tangential penalty must be > 0, got {tangential_penalty}")
-    if getattr(tool, "dim", 2) != gdim:
+    if tool is not None and getattr(tool, "dim", 2) != gdim:
         raise ValueError(f"contact pair {tool.name!r}: a {getattr(tool, 'dim', 2)}-D tool on a {gdim}-D body")
-
-
-def pair_nodes(solver, facet_tags, tag, gdim):
-    """(reference positions X (n, gdim) [mm], their displacement entries in the solver's w (n, gdim), their
-    blocks (n,) in the solver's displacement space) of the owned nodes of the facets tagged ``tag``."""
-    Vc, vmap = solver.displacement_space()
-    blocks = fem.locate_dofs_topological(Vc, solver.mesh.topology.dim - 1, facet_tags.find(tag))
-    blocks = np.asarray(blocks[blocks < Vc.dofmap.index_map.size_local], dtype=np.int64)
-    X = np.ascontiguousarray(Vc.tabulate_dof_coordinates()[blocks, :gdim])
-    idx = np.ascontiguousarray(np.asarray(vmap).reshape(-1, gdim)[blocks])
-    return X, idx, blocks
-
-
-def keep_committed_gaps(tool, contact, X, idx, lam) -> None:
-    """Predictor of an increment to load factor ``lam``: move each node (reference positions X (n, dim) [mm],
-    entries idx (n, dim) of the solver's ``w``, owned) that was in contact with ``tool`` at the last commit
-    of ``contact`` (gap g_n < 0) along the tool's normal N at the predicted position, by g_n - g [mm], so that
-    its predicted gap g is its committed gap again (the caller updates the ghosts).
-
-    Why: the extrapolated predictor moves the contact nodes along a chord of their path over the
-    tool; on a curved tool (the punch) the chord's error (up to 0.05 mm per increment on the 3-D
-    punch) exceeds the penalty penetration (~1 um), so most contact nodes start the increment just
-    outside the tool. There they have no contact stiffness, Newton's first step pushes them
-    millimetres into the tool, and the line search crawls in tiny steps until they are in contact
-    again (measured: the 3-D quarter punch's late increments took 9 to 15 iterations, 5 to 7 with
-    this predictor)."""
-    if not len(X):
-        return
-    w = contact.solver.w.x.array
-    g_n, _ = tool.gap_np(X + contact.w_c.x.array[idx], float(contact.lam_c.value))
-    on = g_n < 0.0
-    if on.any():
-        g, N = tool.gap_np(X[on] + w[idx[on]], lam)
-        w[idx[on]] += (g_n[on] - g)[:, None] * N
 
 
 # ----------------------------------------------------------------------------------------------
@@ -495,6 +462,20 @@ class PenaltyContact:
         self.pairs.append(pair)
         return pair
 
+    def add_surface_pair(self, facet_tags, tag, master_tag, *, penalty, friction=default("contact.*.friction"),
+                         law=default("contact.*.law"), tangential_penalty=None, two_pass, name=None):
+        """Contact of the facets tagged ``tag`` with the body's own facets tagged ``master_tag`` (and back, with
+        ``two_pass``): :func:`fenics_plast.solvers.static_surface_contact.surface_terms`, compiled whatever
+        ``compiled``. Returns the pair that reports (forces, status). Call before :meth:`attach`."""
+        from fenics_plast.solvers.static_surface_contact import surface_terms
+        if self._attached:
+            raise RuntimeError("add contact pairs before attach()")
+        _check_pair(None, None, penalty, friction, law, tangential_penalty)
+        terms, pair = surface_terms(self, facet_tags, tag, master_tag, penalty=penalty, friction=friction, law=law,
+                                    tangential_penalty=tangential_penalty, two_pass=two_pass, name=name)
+        self.pairs.extend(terms)
+        return pair
+
     def add_tool(self, tool, facet_tags, tag):
         """:meth:`add_pair` with the contact-wide penalty, friction, law and tangential penalty."""
         if self.penalty is None:
@@ -528,9 +509,8 @@ class PenaltyContact:
         terms, the forms' pairs as forms."""
         if self._attached:
             return
-        if self.compiled:
-            self.solver.terms.extend(self.pairs)
-        elif self.pairs:
+        self.solver.terms.extend(p for p in self.pairs if not isinstance(p, ContactPair))
+        if any(isinstance(p, ContactPair) for p in self.pairs):
             self.solver.add_residual(self.residual(), self.jacobian())
         self.solver.predictors.append(self.keep_gaps)
         self._attached = True
@@ -582,13 +562,8 @@ class PenaltyContact:
         return pair.nodal_gaps()
 
     def max_penetration(self):
-        """Largest -g over the owned nodes of all pairs, all ranks [mm] (0 if none penetrates)."""
-        local = 0.0
-        for p in self.pairs:
-            g = p.nodal_gaps()
-            if g.size:
-                local = max(local, float(-g.min()))
-        return self.comm.allreduce(local, op=MPI.MAX)
+        """Largest -g over the nodes of all pairs, all ranks [mm] (0 if none penetrates); collective."""
+        return max([p.max_penetration() for p in self.pairs] or [0.0])
 
 
 __all__ = ["ContactPair", "PenaltyContact", "default_penalty", "PENALTY_FACTOR", "LAWS", "NODAL_RULE",

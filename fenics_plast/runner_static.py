@@ -109,22 +109,21 @@ def reaction_dofs(problem, s, ft, groups, constrained):
 
 
 def add_contact(s, ft, specs):
-    """The contact pairs ``specs`` (name -> :class:`fenics_plast.build.ContactPair`) as penalty terms of
-    the residual: (the contact set or None when there are none, {name: pair})."""
+    """The contact pairs ``specs`` (name -> :class:`fenics_plast.build.ContactPair`) as terms of the solver:
+    (the contact set or None when there are none, {name: pair})."""
     from fenics_plast.contact import PenaltyContact
-    from fenics_plast.solvers.static_surface_contact import add_surface_contact
-    pairs, c = {}, None
+    if not specs:
+        return None, {}
+    c = PenaltyContact(s)            # every pair carries its own penalty, friction and law
+    pairs = {}
     for name, p in specs.items():
-        if p.master_tag is not None:        # two facet groups of the body: terms outside the forms
-            pairs[name] = add_surface_contact(s, ft, p.tag, p.master_tag, p.penalty, two_pass=p.two_pass,
-                                              name=name)
-            continue
-        if c is None:
-            c = PenaltyContact(s)            # every pair carries its own penalty, friction and law
-        pairs[name] = c.add_pair(p.tool, ft, p.tag, **p.options())
-    if c is not None:
-        c.attach()
-    return c, {name: pairs[name] for name in specs}
+        if p.master_tag is not None:        # two facet groups of the body
+            pairs[name] = c.add_surface_pair(ft, p.tag, p.master_tag, **p.options(), two_pass=p.two_pass,
+                                             name=name)
+        else:
+            pairs[name] = c.add_pair(p.tool, ft, p.tag, **p.options())
+    c.attach()
+    return c, pairs
 
 
 #: a penalty this many times above or below its pair's default is named as a likely cause of a failure

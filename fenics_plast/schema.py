@@ -330,7 +330,7 @@ SCHEMA: dict[str, Table] = {
                           "positions; two bodies are two regions of one mesh. Each force on a node of `group` "
                           "has its reaction on the nodes of the master facet it presses on. Exactly one of tool "
                           "and master. `group` itself: self-contact (explicit; a node against the facets of its "
-                          "own group that face it, not its own). Static analyses: frictionless."),
+                          "own group that face it, not its own). Friction as for tools, in both analyses."),
             "two_pass": Key("bool", OPTIONAL, "With master: also the master group's nodes against the group's "
                             "facets, the same law and penalty (symmetric: neither side passes through the "
                             "other); absent = true; false: the group's nodes only."),

@@ -183,6 +183,14 @@ class Tool:
         return g, np.stack([np.broadcast_to(c, g.shape) for c in N], axis=1)
 
 
+def compiled_shape(tool):
+    """(shape code, parameter vector) of a tool whose gap the compiled kernels compute
+    (:mod:`fenics_plast.solvers.tool_gaps`): a :class:`Tool` without a gap of its own; None for any other."""
+    if isinstance(tool, Tool) and type(tool).gap_np is Tool.gap_np:
+        return tool.shape.code, np.asarray(tool.params, dtype=float)
+    return None
+
+
 class Plane(Tool):
     """Half-space through ``point`` [mm] (+ translation) with ``normal`` (any length, normalised) pointing
     into the body (:mod:`~fenics_plast.tool_shapes.plane`); 2-D with 2-vectors, 3-D with 3-vectors."""
@@ -241,6 +249,6 @@ class RevolvedProfile(Tool):
                          body_side=body_side)
 
 
-__all__ = ["Tool", "Plane", "Circle", "Profile", "Sphere", "Cylinder", "Torus", "RevolvedProfile", "TINY",
+__all__ = ["Tool", "compiled_shape", "Plane", "Circle", "Profile", "Sphere", "Cylinder", "Torus", "RevolvedProfile", "TINY",
            "PENALTY_FACTOR", "default_penalty",
            "contact_length_scale", "piecewise_path"]

@@ -444,9 +444,6 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
         elif master is not None and master == c.group and c.get("two_pass") is not None:
             v.fail(f"contact.{n}.two_pass: a self-contact pair (master = group) has one pass, its nodes against "
                    f"its own facets")
-        if master is not None and not explicit and c.friction > 0:
-            v.fail(f"contact.{n}.friction = {c.friction:g}: contact between facet groups of the body is "
-                   f"frictionless in static analyses (friction 0; explicit analyses take friction)")
         if c.get("two_pass") is not None and master is None:
             v.fail(f"contact.{n}.two_pass applies to a pair with master (a facet group of the body)")
     column_count = {n: len(column_names(n, o)) for n, o in t["outputs"].items()}

@@ -138,21 +138,6 @@ def test_bad_body_contact_exit_2_key_named_nothing_written(tmp_path, sets, messa
     assert not out.exists() or not any(out.iterdir())
 
 
-def test_body_master_with_friction_in_a_static_scene_exit_2(tmp_path):
-    """Static contact between facet groups of the body is frictionless (for now): friction is refused, the
-    key named, nothing written."""
-    scene = tmp_path / "static.toml"
-    text = (REPO / "demos" / "punch_stretching.toml").read_text().replace('file = "../meshes/',
-                                                                          f'file = "{REPO}/meshes/')
-    scene.write_text(text + '\n[contact.sheets]\ngroup = "lower"\nmaster = "upper"\nfriction = 0.2\n')
-    out = tmp_path / "out"
-    r = run(scene, out)
-    assert r.returncode == 2, r.stderr[-2000:]
-    assert re.search(r"contact\.sheets\.friction = 0\.2: contact between facet groups of the body is frictionless "
-                     r"in static analyses", r.stderr), r.stderr[-2000:]
-    assert not out.exists() or not any(out.iterdir())
-
-
 # two blocks, 2 x 2 x 2 mm each, stacked along z with non-matching hexahedra (2 x 2 x 2 cells below, 3 x 3 x 3
 # above), their faces at z = 2 coincident but separate (no shared nodes)
 BLOCKS_3D = """Geometry.AutoCoherence = 0;

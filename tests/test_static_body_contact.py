@@ -94,36 +94,43 @@ def test_patch_test_two_passes_transmit_a_uniform_pressure():
     assert 2e-2 < one < 0.2, one
 
 
+@pytest.mark.parametrize("friction", [0.0, 0.3], ids=["frictionless", "coulomb"])
 @pytest.mark.parametrize("case", ["inside", "corner"])
-def test_node_to_segment_tangent_is_the_force_derivative(case):
-    """The element tangent of a pressed node (analytic inside the segment, central differences at its end)
-    equals central differences of the element's residual with a step far below the gap."""
+def test_node_to_segment_tangent_is_the_force_derivative(case, friction):
+    """The element tangent of a pressed node (frictionless: analytic inside the segment, central differences at
+    its end; with friction central differences, slipping here) equals central differences of the element's
+    residual with a step far below the gap (the nodes' displacements since the commit moving with them)."""
     from fenics_plast.solvers.static_surface_contact import _node_terms
     rng = np.random.default_rng(3)
+    law = (1e4, 1e4, friction, 0)
+    t_n, N_n, p_n = np.array([[50.0, 0.0]]), np.array([[0.0, 1.0]]), np.array([300.0])
     for _ in range(5):
         V = np.array([[0.0, 0.0], [1.0, 0.1]]) + rng.uniform(-0.05, 0.05, (2, 2))
         x = np.array([[0.4 if case == "inside" else 1.04, -0.03]]) + rng.uniform(-0.005, 0.005, (1, 2))
+        dx, dV = np.array([[0.1, 0.0]]), np.zeros((2, 2))           # the slave slid 0.1 mm since the commit
         F = np.array([[0, 1]])
-        args = (np.array([0.7]), np.array([0]), 1e4)
 
-        def residual(xs, verts):
+        def residual(xs, verts, dxs, dverts):
             r, K, g, N = np.zeros((1, 6)), np.zeros((1, 6, 6)), np.zeros(1), np.zeros((1, 2))
-            _node_terms(xs, args[0], args[1], verts, F, args[2], r, K, g, N)
-            return r[0], K[0], g[0]
+            t, p, slip = np.zeros((1, 2)), np.zeros(1), np.zeros(1)
+            _node_terms(xs, dxs, np.array([0.7]), np.array([0]), verts, dverts, F, law, t_n, N_n, p_n, r, K, g, N,
+                        t, p, slip)
+            return r[0], K[0], g[0], slip[0]
 
-        r, K, g = residual(x, V)
-        assert g < 0
+        r, K, g, slip = residual(x, V, dx, dV)
+        assert g < 0 and slip == 1.0
         h = 1e-7
         fd = np.zeros((6, 6))
         for c in range(6):
             xp, Vp, xm, Vm = x.copy(), V.copy(), x.copy(), V.copy()
+            dxp, dVp, dxm, dVm = dx.copy(), dV.copy(), dx.copy(), dV.copy()
             if c < 2:
-                xp[0, c] += h
-                xm[0, c] -= h
+                for a, s in ((xp, h), (xm, -h), (dxp, h), (dxm, -h)):
+                    a[0, c] += s
             else:
-                Vp[(c - 2) // 2, c % 2] += h
-                Vm[(c - 2) // 2, c % 2] -= h
-            fd[:, c] = (residual(xp, Vp)[0] - residual(xm, Vm)[0]) / (2 * h)
+                for a, s in ((Vp, h), (Vm, -h), (dVp, h), (dVm, -h)):
+                    a[(c - 2) // 2, c % 2] += s
+            fd[:, c] = (residual(xp, Vp, dxp, dVp)[0] - residual(xm, Vm, dxm, dVm)[0]) / (2 * h)
         np.testing.assert_allclose(K, fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
 
 
@@ -192,3 +199,48 @@ def test_elastic_die_newton_converges_quadratically():
     b = run_static("elastic_die.toml")
     orders = observed_orders(b.solver)
     assert len(orders) >= 5 and np.median(orders) > 1.5, orders
+
+
+def run_scene_in_process(path, *sets):
+    """The built solver of the scene file ``path`` with ``sets``, run to the end with its commits (in process)."""
+    from mpi4py import MPI
+
+    from fenics_plast.problem import load_problem
+    from fenics_plast.runner_static import build_static
+    problem = load_problem(path, list(sets))
+    b = build_static(problem, MPI.COMM_WORLD, log=lambda m: None)
+    a = problem.analysis
+    b.solver.run(increments=a.increments, max_increment=a.max_increment, min_increment=a.min_increment,
+                 lam_end=1.0, callback=lambda s: b.contact.commit() or False)
+    return b
+
+
+@pytest.mark.parametrize("law", ["coulomb", "quasi-coulomb"])
+def test_friction_between_bodies_equals_friction_on_a_rigid_tool(law):
+    """A block pressed onto a base 1000 times stiffer and slid along it (tests/scenes/sliding_blocks.toml, the
+    onset of sliding: with coulomb the edges slip, the middle sticks) carries the same normal and tangential force
+    as on a rigid plane with the same friction (sliding_block_on_tool.toml), within the base's compliance
+    (measured: coulomb -0.04 % normal, -0.02 % tangential; quasi-coulomb -0.03 %, -0.07 %)."""
+    scenes = REPO / "tests" / "scenes"
+    body = run_scene_in_process(scenes / "sliding_blocks.toml", f"contact.interface.law={law}")
+    tool = run_scene_in_process(scenes / "sliding_block_on_tool.toml", f"contact.interface.law={law}")
+    fb, ft = body.pairs["interface"].force(), tool.pairs["interface"].force()
+    assert ft[1] > 20.0 and abs(ft[0]) > 0.02 * ft[1]                    # pressed, and a real shear
+    assert abs(fb[1] / ft[1] - 1) < 2e-3 and abs(fb[0] / ft[0] - 1) < 3e-3, (fb, ft)
+    contact, slipping = body.pairs["interface"].status()
+    assert slipping < contact and (slipping > 0 or law == "quasi-coulomb"), (contact, slipping)
+
+
+def test_friction_between_bodies_slips_at_mu_times_the_normal_force():
+    """Slid farther (2 um, ten times the press), every node of both passes slips: the interface's tangential force
+    is mu times its normal force (coulomb, to round-off), and the Newton steps of the sliding increments are
+    quadratic (the central-difference element tangent of friction)."""
+    b = run_scene_in_process(REPO / "tests" / "scenes" / "sliding_blocks.toml",
+                             "boundary.press.value=['0.002 * max(2 * t - 1, 0)', '-0.001 * min(2 * t, 1)']")
+    pair = b.pairs["interface"]
+    contact, slipping = pair.status()
+    assert contact == slipping > 0
+    assert abs(abs(pair.tangential_force()) - 0.3 * pair.normal_force()) < 1e-9 * pair.normal_force()
+    assert abs(abs(pair.force()[0]) - 0.3 * pair.normal_force()) < 1e-5 * pair.normal_force()   # normals ~ y
+    orders = observed_orders(b.solver)
+    assert len(orders) >= 3 and np.median(orders) > 1.5, orders

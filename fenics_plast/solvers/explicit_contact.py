@@ -59,7 +59,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from fenics_plast.contact import LAWS
-from fenics_plast.tools import Tool
+from fenics_plast.tools import compiled_shape
 from fenics_plast.solvers import contact_kernels as ck
 from fenics_plast.solvers.body_surface import BodySurface, tributary_areas
 
@@ -74,13 +74,12 @@ def _hist_cols(dim):
 
 def tool_kind(tool):
     """(kind, params) of the compiled gap: a :class:`~fenics_plast.tools.Tool`'s shape code and parameter
-    vector, (BODY, empty) for a master surface of the body, or (GENERIC, empty) for any other tool, or a
-    Tool subclass with a gap_np of its own."""
-    if isinstance(tool, Tool) and type(tool).gap_np is Tool.gap_np:
-        return tool.shape.code, np.asarray(tool.params, dtype=float)
+    vector (:func:`~fenics_plast.tools.compiled_shape`), (BODY, empty) for a master surface of the body, or
+    (GENERIC, empty) for any other tool, or a Tool subclass with a gap_np of its own."""
     if isinstance(tool, BodySurface):
         return ck.BODY, np.zeros(0)
-    return ck.GENERIC, np.zeros(0)
+    shape = compiled_shape(tool)
+    return shape if shape is not None else (ck.GENERIC, np.zeros(0))
 
 
 class ExplicitContactPair:

@@ -1,4 +1,4 @@
-"""Frictionless penalty contact between two facet groups of the body in the static solver, node to surface.
+"""Frictional penalty contact between two facet groups of the body in the static solver, node to surface.
 
 The static counterpart of the explicit solver's master surfaces of the body
 (:mod:`fenics_plast.solvers.body_surface`): each owned node s of the slave group finds the master facet
@@ -6,21 +6,28 @@ nearest to it at the current Newton state (the same search,
 :func:`~fenics_plast.solvers.surface_gaps.nearest_points`), and that node-to-facet element contributes the
 forces
 
-    f_s = A_s p N,  f_a = -w_a f_s  (a: the facet's vertices, w_a the nearest point's weights),
+    f_s = A_s (p N + t),  f_a = -w_a f_s  (a: the facet's vertices, w_a the nearest point's weights),
     p = eps <-g>,   g = (x_s - q) . n_f inside the facet (n_f its unit normal, out of the master body),
                     g = sign |x_s - q|, N = (x_s - q) / g at its edges and corners,
 
-with A_s the slave node's tributary area int N_s w dA0 [mm^2] (w = 2 pi R in axisymmetry), to the residual
-(R -= f) and their derivative to the Jacobian (K = -df/dx), with the facet held fixed. Inside a segment
-(2-D) K is the node-to-segment element's consistent linearisation (Wriggers, Computational Contact
-Mechanics, 2006, sec. 9.1: :func:`_segment_tangent`); at a segment's end and on triangles (3-D) it is the
-central difference of the element's closed-form force, the step 1e-7 of the facet's size and below a
-thousandth of the gap (so that it does not cross g = 0). ``tests/test_static_body_contact.py`` holds the
-analytic tangent to central differences and measures Newton's rates.
+t the tangential traction of the law both solvers share (:func:`~fenics_plast.solvers.contact_law.node_law`:
+coulomb or quasi-coulomb, slip as a vector of the tangent plane) with the slip s = d_s - sum_a w_a d_a, the
+displacement of the slave since the last commit relative to the master point's (d the nodes' displacements
+since then), and A_s the slave node's tributary area int N_s w dA0 [mm^2] (w = 2 pi R in axisymmetry). They
+enter the residual (R -= f) and their derivative the Jacobian (K = -df/dx, over the slave's and the facet's
+vertices' positions). Without friction, inside a segment (2-D), K is the node-to-segment element's
+consistent linearisation (Wriggers, Computational Contact Mechanics, 2006, sec. 9.1:
+:func:`_segment_tangent`); otherwise (friction, a segment's end, triangles in 3-D) it is the central
+difference of the element's closed-form force, the step 1e-7 of the facet's size and below a thousandth of
+the gap (so that it does not cross g = 0; not below 1e-10 of the facet's size), the history and the committed positions held.
+``tests/test_static_body_contact.py`` holds the analytic tangent to central differences, measures Newton's
+rates and checks friction between two bodies against friction on a rigid tool.
 
-Rows and columns of constrained dofs (Dirichlet conditions) take no entries; the entries couple nodes of
-the two groups that the forms' sparsity does not hold, so the solver's matrix accepts new nonzeros (MUMPS
-analyses the pattern again when it grows). Units mm, N, MPa.
+History (per slave node, stored by :meth:`SurfaceContactTerm.commit` at each converged increment): the
+traction, normal and pressure, and the displacement of every node. Rows and columns of constrained dofs
+(Dirichlet conditions) take no entries; the entries couple nodes of the two groups that the forms' sparsity
+does not hold, so the solver's matrix accepts new nonzeros (MUMPS analyses the pattern again when it grows).
+Units mm, N, MPa.
 """
 from __future__ import annotations
 
@@ -33,6 +40,7 @@ from petsc4py import PETSc
 
 from fenics_plast import dolfinx_compat as dc
 from fenics_plast.solvers.body_surface import BodySurface, TwoPassPair, tributary_areas
+from fenics_plast.solvers.contact_law import COULOMB, QUASI_COULOMB, node_law
 from fenics_plast.solvers.surface_gaps import nearest_points, segment_nearest, triangle_nearest
 from fenics_plast.solvers.tool_gaps import FLAGS
 
@@ -45,15 +53,25 @@ FD_STEP = 1e-7
 class SurfaceContactTerm:
     """The nodes of the facets tagged ``tag`` pressed against ``surface`` (a
     :class:`~fenics_plast.solvers.body_surface.BodySurface` of the same body, on the solver's displacement
-    space) with the normal penalty ``penalty`` [N/mm^3]: a term of :class:`~fenics_plast.solvers.static.StaticSolver`
-    (``solver.terms``: :meth:`residual` and :meth:`jacobian`). Collective construction and calls."""
+    space) with the normal penalty ``penalty`` [N/mm^3], friction coefficient ``friction``, law and tangential
+    penalty [N/mm^3] (None: the normal one): a term of :class:`~fenics_plast.solvers.static.StaticSolver`
+    (``solver.terms``: :meth:`residual` and :meth:`jacobian`) with the history and reports of the contact set
+    ``contact`` (:class:`fenics_plast.contact.PenaltyContact`: its committed state ``w_c``). Collective
+    construction and calls."""
 
-    def __init__(self, solver, facet_tags, tag, surface, penalty, name=None):
+    def __init__(self, contact, facet_tags, tag, surface, *, penalty, friction, law, tangential_penalty=None,
+                 name=None):
         if not penalty > 0:
             raise ValueError(f"contact penalty must be > 0, got {penalty!r}")
         from dolfinx import fem
-        s = self.solver = solver
+
+        from fenics_plast.checkpoint import dof_keys
+        self.contact = contact
+        s = self.solver = contact.solver
         self.surface, self.penalty, self.name, self.tag = surface, float(penalty), name or "contact", tag
+        self.tangential_penalty = float(tangential_penalty if tangential_penalty else penalty)
+        self.friction, self.law = float(friction), law
+        self._law = (self.penalty, self.tangential_penalty, self.friction, COULOMB if law == "coulomb" else QUASI_COULOMB)
         self.comm = s.comm
         Vc, vmap = s.displacement_space()
         d = self.dim = Vc.dofmap.index_map_bs
@@ -74,6 +92,12 @@ class SurfaceContactTerm:
         self.facet, self.weights = np.full(n, -1, np.int64), np.zeros((n, d))
         self.r = np.zeros((n, (1 + d) * d))
         self.K = np.zeros((n, (1 + d) * d, (1 + d) * d))
+        self.t, self.p, self.slip = np.zeros((n, d)), np.zeros(n), np.zeros(n)
+        # history at the last commit: the slaves' traction, normal, pressure; the displacement (Vc numbering)
+        self.t_n, self.N_n, self.p_n = np.zeros((n, d)), np.zeros((n, d)), np.zeros(n)
+        self.u_c = np.asarray(contact.w_c.x.array[vmap]).copy()
+        self.hist_size = 2 * d + 1
+        self._hist_keys = (dof_keys(Vc)[self.dofs[:, 0]][:, None] + np.arange(self.hist_size)).ravel()
 
     # -- equation numbers ----------------------------------------------------------------------
     def _global_equations(self, local_w):
@@ -98,20 +122,26 @@ class SurfaceContactTerm:
         self._master_eq = surf.global_rows(self._global_equations(self.vmap[surf.dofs]))   # (nv, dim)
 
     # -- the solver's calls --------------------------------------------------------------------
+    def evaluate(self):
+        """The slave nodes' nearest facets, gaps, forces and element tangents at the solver's current state
+        (collective: the surface moves)."""
+        u = self.solver.w.x.array[self.vmap]            # displacement on the Vc numbering (ghosts current)
+        du = u - self.u_c                               # since the last commit: the slip's measure
+        self.surface.move(u, du)
+        x = self.X + u[self.dofs]
+        nearest_points(self.surface.surface, x, self.skip, self.g, self.N, self.facet, self.weights)
+        surf = self.surface.surface
+        _node_terms(x, du[self.dofs], self.area, self.facet, surf.vertices, self.surface.increment, surf.facets,
+                    self._law, self.t_n, self.N_n, self.p_n, self.r, self.K, self.g, self.N, self.t, self.p,
+                    self.slip)
+
     def residual(self, b):
         """b -= the contact forces at the solver's current state (global entries; off-process ones are
         stashed: the caller assembles b)."""
         if not self._equations_built:
             self._build_equations()
             self._equations_built = True
-        s = self.solver
-        u = s.w.x.array[self.vmap]                      # displacement on the Vc numbering (ghosts current)
-        self.surface.move(u)
-        x = self.X + u[self.dofs]
-        nearest_points(self.surface.surface, x, self.skip, self.g, self.N, self.facet, self.weights)
-        surf = self.surface.surface
-        _node_terms(x, self.area, self.facet, surf.vertices, surf.facets, self.penalty, self.r, self.K, self.g,
-                    self.N)
+        self.evaluate()
         on = np.flatnonzero(self.g <= 0.0)        # pressed or touching: a tangent (a body held by contact alone)
         self._active = on
         if len(on):
@@ -119,6 +149,29 @@ class SurfaceContactTerm:
             eq, r = eq.ravel(), self.r[on].ravel()
             free = eq >= 0
             b.setValues(eq[free].astype(PETSc.IntType), r[free], addv=PETSc.InsertMode.ADD)
+
+    def commit(self):
+        """Store the history (the slaves' traction, normal, pressure; the displacement) at the current
+        (converged) state; collective."""
+        self.evaluate()
+        self.t_n[:], self.N_n[:], self.p_n[:] = self.t, self.N, self.p
+        self.u_c[:] = self.solver.w.x.array[self.vmap]
+
+    def keep_gaps(self, lam) -> None:
+        """The contact predictor's hook: nothing here (the master surface moves with the body)."""
+
+    # -- checkpoints ----------------------------------------------------------------------------
+    def history(self):
+        """(values, keys) of the committed history (t_n, N_n, p_n) of the owned slave nodes (node * SLOTS +
+        component, as the tool pairs')."""
+        return np.concatenate([self.t_n, self.N_n, self.p_n[:, None]], axis=1).ravel(), self._hist_keys
+
+    def load_history(self, values):
+        """Restore :meth:`history`'s values (the caller has restored the set's ``w_c``)."""
+        h = np.asarray(values).reshape(-1, self.hist_size)
+        d = self.dim
+        self.t_n[:], self.N_n[:], self.p_n[:] = h[:, :d], h[:, d:2 * d], h[:, 2 * d]
+        self.u_c[:] = self.contact.w_c.x.array[self.vmap]
 
     def _equations_of(self, rows):
         verts = self.surface.surface.facets[self.facet[rows]]                         # (m, nfv)
@@ -143,11 +196,27 @@ class SurfaceContactTerm:
     def force(self):
         """Total contact force on the slave nodes [N] (dim,) at the last residual (2 pi r included in
         axisymmetry)."""
-        f = (self.area * self.penalty * np.maximum(-self.g, 0.0))[:, None] * self.N
-        return self.comm.allreduce(f.sum(axis=0), op=MPI.SUM)
+        return self.comm.allreduce(-self.r[:, :self.dim].sum(axis=0), op=MPI.SUM)
 
     def normal_force(self):
-        return self.comm.allreduce(float(np.dot(self.area, self.penalty * np.maximum(-self.g, 0.0))), op=MPI.SUM)
+        """sum A p over the slave nodes [N] at the last residual."""
+        return self.comm.allreduce(float(np.dot(self.area, self.p)), op=MPI.SUM)
+
+    def tangential_force(self):
+        """sum A t [N] at the last residual: 2-D signed along T = (N_f,y, -N_f,x) (0 without friction), 3-D
+        the vector (3,)."""
+        if self.dim == 3:
+            return self.comm.allreduce((self.area[:, None] * self.t).sum(axis=0), op=MPI.SUM)
+        Nf = self.N if self._law[3] == COULOMB else self.N_n
+        return self.comm.allreduce(float(np.dot(self.area, self.t[:, 0] * Nf[:, 1] - self.t[:, 1] * Nf[:, 0])),
+                                   op=MPI.SUM)
+
+    def status(self):
+        """(slave nodes in contact, slipping) at the last residual, all ranks (frictionless: all slip)."""
+        on = self.g < 0.0
+        tot = self.comm.allreduce(np.array([np.count_nonzero(on), np.count_nonzero(on & (self.slip > 0))]),
+                                  op=MPI.SUM)
+        return int(tot[0]), int(tot[1])
 
     def max_penetration(self):
         """Largest -g over the slave nodes at the last residual [mm] (0 if none penetrates)."""
@@ -155,20 +224,22 @@ class SurfaceContactTerm:
         return self.comm.allreduce(local, op=MPI.MAX)
 
 
-def add_surface_contact(solver, facet_tags, tag, master_tag, penalty, two_pass=True, name=None):
-    """The pair of the nodes tagged ``tag`` against the body's facets tagged ``master_tag`` (and, with
-    ``two_pass``, back) as terms of the static ``solver`` (before its :meth:`setup`). Returns the
-    :class:`SurfaceContactTerm` or :class:`~fenics_plast.solvers.body_surface.TwoPassPair` (reports). Collective."""
+def surface_terms(contact, facet_tags, tag, master_tag, *, penalty, friction, law, tangential_penalty=None,
+                  two_pass=True, name=None):
+    """The terms of the pair of the nodes tagged ``tag`` against the body's facets tagged ``master_tag`` (and,
+    with ``two_pass``, back), for the static contact set ``contact``
+    (:meth:`fenics_plast.contact.PenaltyContact.add_surface_pair`): (the terms, the pair that reports:
+    the :class:`SurfaceContactTerm` or a :class:`~fenics_plast.solvers.body_surface.TwoPassPair`). Collective."""
+    solver = contact.solver
     Vc, _ = solver.displacement_space()
     X = Vc.tabulate_dof_coordinates()[:, :Vc.dofmap.index_map_bs]
     surfaces = {t: BodySurface(Vc, X, facet_tags, t) for t in ({master_tag, tag} if two_pass else {master_tag})}
-    forward = SurfaceContactTerm(solver, facet_tags, tag, surfaces[master_tag], penalty, name)
-    solver.terms.append(forward)
+    law_args = dict(penalty=penalty, friction=friction, law=law, tangential_penalty=tangential_penalty, name=name)
+    forward = SurfaceContactTerm(contact, facet_tags, tag, surfaces[master_tag], **law_args)
     if not two_pass:
-        return forward
-    backward = SurfaceContactTerm(solver, facet_tags, master_tag, surfaces[tag], penalty, name)
-    solver.terms.append(backward)
-    return TwoPassPair(forward, backward)
+        return [forward], forward
+    backward = SurfaceContactTerm(contact, facet_tags, master_tag, surfaces[tag], **law_args)
+    return [forward, backward], TwoPassPair(forward, backward)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -176,16 +247,20 @@ def add_surface_contact(solver, facet_tags, tag, master_tag, penalty, two_pass=T
 
 
 @_njit
-def _element_force(P, nfv, eps, area, n_f, f):
+def _element_force(P, D, nfv, area, n_f, law, t_n, N_n, p_n, f, t):
     """f (1 + nfv, dim) = the forces [N] on the slave (row 0, position P[0]) and on the facet's vertices
     (P[1:]) of the element of slave area ``area`` [mm^2] and facet normal n_f (its own, from the vertices'
-    order; only its side is used at edges and corners). Returns (g [mm], N)."""
+    order; only its side is used at edges and corners), by :func:`~fenics_plast.solvers.contact_law.node_law`
+    (law = (eps, eps_t, mu, law code); t_n (dim,), N_n (dim,), p_n: the slave's history) with the slip
+    s = D[0] - sum_a w_a D[1 + a] (D (1 + nfv, dim) the nodes' displacements since the history's state
+    [mm], w the nearest point's weights); t (dim,) gets the slave's tangential traction [MPa]. Returns
+    (g [mm], N, p [MPa], slip)."""
     dim = P.shape[1]
     V = P[1:]
     if dim == 2:
-        d2, q0, q1, feature, t = segment_nearest(P[0], V, 0, 1)
+        d2, q0, q1, feature, xi = segment_nearest(P[0], V, 0, 1)
         q2 = 0.0
-        w = (1.0 - t, t, 0.0)
+        w = (1.0 - xi, xi, 0.0)
     else:
         d2, q0, q1, q2, feature, v, ww = triangle_nearest(P[0], V, 0, 1, 2)
         w = (1.0 - v - ww, v, ww)
@@ -204,12 +279,19 @@ def _element_force(P, nfv, eps, area, n_f, f):
         N[0], N[1] = sign * r0 / dist, sign * r1 / dist
         if dim == 3:
             N[2] = sign * r2 / dist
-    p = eps * (-g) if g < 0.0 else 0.0
+    s = np.empty(dim)
     for j in range(dim):
-        f[0, j] = area * p * N[j]
+        s[j] = D[0, j]
         for a in range(nfv):
-            f[1 + a, j] = -w[a] * f[0, j]
-    return g, N
+            s[j] -= w[a] * D[1 + a, j]
+    fs = np.empty(dim)
+    p, slip = node_law(g, N, np.empty((dim, dim)), s, t_n, N_n, p_n, area, law[0], law[1], law[2], law[3], fs, t,
+                       np.empty((0, 0)))
+    for j in range(dim):
+        f[0, j] = fs[j]
+        for a in range(nfv):
+            f[1 + a, j] = -w[a] * fs[j]
+    return g, N, p, slip
 
 
 @_njit
@@ -266,37 +348,49 @@ def _segment_tangent(P, xi, g, k, K):
 
 
 @_njit
-def _node_terms(x, area, facet, V, F, eps, r, K, g, N):
-    """Per slave node i with a facet (facet[i] >= 0): r[i] = -f (the residual's entries: the slave's dim
-    components, then each facet vertex's) and K[i] = -df/dx by central differences; g[i], N[i] the gap and
-    normal (overwriting the search's with the element's own, the same numbers inside a facet). Nodes
-    without a facet get g = inf and zeros."""
+def _node_terms(x, dx, area, facet, V, DV, F, law, t_n, N_n, p_n, r, K, g, N, t, p, slip):
+    """Per slave node i (positions x (n, dim) [mm], displacements since the last commit dx (n, dim) [mm]) with a
+    facet (facet[i] >= 0) of the surface V (nv, dim) [mm] (its vertices' displacements since the commit DV
+    (nv, dim)), F (nf, nfv): r[i] = -f (the residual's entries: the slave's dim components, then each facet
+    vertex's) and K[i] = -df/dx, the node-to-segment element's analytic tangent inside a segment without
+    friction, else central differences; g[i], N[i] the gap and normal (overwriting the search's with the
+    element's own, the same numbers inside a facet), t[i], p[i], slip[i] the law's (law, t_n, N_n, p_n: see
+    :func:`_element_force`). Nodes without a facet get g = inf and zeros."""
     n, dim = x.shape
     nfv = F.shape[1]
     m = (1 + nfv) * dim
     P = np.empty((1 + nfv, dim))
+    D = np.empty((1 + nfv, dim))
     f = np.empty((1 + nfv, dim))
     fp = np.empty((1 + nfv, dim))
     fm = np.empty((1 + nfv, dim))
+    tw = np.empty(dim)
+    frictionless = law[2] <= 0.0
     for i in range(n):
         r[i, :] = 0.0
         K[i, :, :] = 0.0
+        t[i, :] = 0.0
+        p[i] = 0.0
+        slip[i] = 0.0
         fc = facet[i]
         if fc < 0:
             g[i] = math.inf
             continue
         for j in range(dim):
             P[0, j] = x[i, j]
+            D[0, j] = dx[i, j]
         size = 0.0
         for a in range(nfv):
             for j in range(dim):
                 P[1 + a, j] = V[F[fc, a], j]
+                D[1 + a, j] = DV[F[fc, a], j]
             for b in range(a):
                 e = 0.0
                 for j in range(dim):
                     e += (V[F[fc, a], j] - V[F[fc, b], j]) ** 2
                 size = max(size, math.sqrt(e))
-        gi, Ni = _element_force(P, nfv, eps, area[i], _facet_normal(P), f)
+        gi, Ni, p[i], slip[i] = _element_force(P, D, nfv, area[i], _facet_normal(P), law, t_n[i], N_n[i], p_n[i],
+                                               f, t[i])
         g[i] = gi
         for j in range(dim):
             N[i, j] = Ni[j]
@@ -305,23 +399,30 @@ def _node_terms(x, area, facet, V, F, eps, r, K, g, N):
                 r[i, a * dim + j] = -f[a, j]
         if gi > 0.0:        # apart: no force, no stiffness
             continue
-        if dim == 2:
+        if dim == 2 and frictionless:
             _, _, _, feature, xi = segment_nearest(P[0], P[1:], 0, 1)
             if feature == 0:
-                _segment_tangent(P, xi, gi, eps * area[i], K[i])
+                _segment_tangent(P, xi, gi, law[0] * area[i], K[i])
                 continue
-        # corners and edges (and 3-D): central differences, the step below the gap so as not to cross g = 0
+        # friction, corners and edges (and 3-D): central differences, the step below the gap so as not to
+        # cross g = 0 (but not below a thousandth of the step: a node touching, |g| ~ 1e-16, would take a step
+        # at round-off); a node's displacement since the commit moves with it
         h = FD_STEP * size
-        if gi < 0.0:
-            h = min(h, 1e-3 * -gi)
+        h = max(min(h, 1e-3 * -gi), 1e-3 * h)
+        # a node touching (|g| below the steps) takes the tangent of the pressed side, as the law's own
+        # tangent does for g < 0: the differences are taken with the slave moved in along N to g = -2 h
+        shift = -gi - 2.0 * h if gi > -2.0 * h else 0.0
+        for j in range(dim):
+            P[0, j] += shift * Ni[j]
+            D[0, j] += shift * Ni[j]
         for c in range(m):
             a, j = c // dim, c % dim
-            keep = P[a, j]
-            P[a, j] = keep + h
-            _element_force(P, nfv, eps, area[i], _facet_normal(P), fp)
-            P[a, j] = keep - h
-            _element_force(P, nfv, eps, area[i], _facet_normal(P), fm)
-            P[a, j] = keep
+            keep, keep_d = P[a, j], D[a, j]
+            P[a, j], D[a, j] = keep + h, keep_d + h
+            _element_force(P, D, nfv, area[i], _facet_normal(P), law, t_n[i], N_n[i], p_n[i], fp, tw)
+            P[a, j], D[a, j] = keep - h, keep_d - h
+            _element_force(P, D, nfv, area[i], _facet_normal(P), law, t_n[i], N_n[i], p_n[i], fm, tw)
+            P[a, j], D[a, j] = keep, keep_d
             for b in range(1 + nfv):
                 for k in range(dim):
                     K[i, b * dim + k, c] = -(fp[b, k] - fm[b, k]) / (2.0 * h)
