@@ -1,7 +1,8 @@
 // A U-shaped body (plane strain, x, y): two arms of width a and height h on a base of height b, the gap
 // between the arms g, structured quadrilaterals (five blocks sharing their edges: one body). The arms' inner
 // faces and the base's face between them are one open curve, "inner", that the arms may close onto itself
-// (self-contact). Groups: u (region), arm_left, arm_right (regions of the arms), inner, bottom.
+// (self-contact). Groups: u (region), arm_left, arm_right (regions of the arms), inner, bottom, outer_left,
+// outer_right (the arms' outer faces).
 DefineConstant[
   a = {2.0, Name "Parameters/arm_width"},
   h = {10.0, Name "Parameters/arm_height"},
@@ -33,3 +34,5 @@ Physical Surface("arm_left", 2) = {4};
 Physical Surface("arm_right", 3) = {5};
 Physical Curve("inner", 11) = {14, 5, 15};
 Physical Curve("bottom", 12) = {1, 2, 3};
+Physical Curve("outer_left", 13) = {13};
+Physical Curve("outer_right", 14) = {16};

@@ -215,20 +215,33 @@ def run_scene_in_process(path, *sets):
     return b
 
 
-@pytest.mark.parametrize("law", ["coulomb", "quasi-coulomb"])
-def test_friction_between_bodies_equals_friction_on_a_rigid_tool(law):
+@pytest.mark.parametrize("dim,sets", [
+    (2, ["contact.interface.law=coulomb"]),
+    (2, ["contact.interface.law=quasi-coulomb"]),
+    (3, ["contact.interface.friction=0"]),
+    (3, ["contact.interface.law=coulomb", "contact.interface.two_pass=false"]),
+], ids=["2d-coulomb", "2d-quasi-coulomb", "3d-frictionless", "3d-coulomb-one-pass"])
+def test_friction_between_bodies_equals_friction_on_a_rigid_tool(dim, sets):
     """A block pressed onto a base 1000 times stiffer and slid along it (tests/scenes/sliding_blocks.toml, the
     onset of sliding: with coulomb the edges slip, the middle sticks) carries the same normal and tangential force
     as on a rigid plane with the same friction (sliding_block_on_tool.toml), within the base's compliance
-    (measured: coulomb -0.04 % normal, -0.02 % tangential; quasi-coulomb -0.03 %, -0.07 %)."""
+    (measured: coulomb -0.04 % normal, -0.02 % tangential; quasi-coulomb -0.03 %, -0.07 %). In 3-D
+    (sliding_blocks_3d.toml: non-matching hexahedra, the master quadrilaterals as triangles, the element tangent
+    a central difference): frictionless two passes -0.02 %, coulomb one pass -0.05 % / -0.2 % (two passes with
+    coulomb friction do not converge there: README, Known limitations)."""
     scenes = REPO / "tests" / "scenes"
-    body = run_scene_in_process(scenes / "sliding_blocks.toml", f"contact.interface.law={law}")
-    tool = run_scene_in_process(scenes / "sliding_block_on_tool.toml", f"contact.interface.law={law}")
+    suffix = "_3d" if dim == 3 else ""
+    body = run_scene_in_process(scenes / f"sliding_blocks{suffix}.toml", *sets)
+    tool_sets = [s for s in sets if "two_pass" not in s]                 # a tool pair has one pass
+    tool = run_scene_in_process(scenes / f"sliding_block_on_tool{suffix}.toml", *tool_sets)
     fb, ft = body.pairs["interface"].force(), tool.pairs["interface"].force()
-    assert ft[1] > 20.0 and abs(ft[0]) > 0.02 * ft[1]                    # pressed, and a real shear
-    assert abs(fb[1] / ft[1] - 1) < 2e-3 and abs(fb[0] / ft[0] - 1) < 3e-3, (fb, ft)
+    n = dim - 1                                                           # the normal component
+    assert ft[n] > 20.0 and abs(fb[n] / ft[n] - 1) < 2e-3, (fb, ft)
+    if "contact.interface.friction=0" in sets:
+        return
+    assert abs(ft[0]) > 0.02 * ft[n] and abs(fb[0] / ft[0] - 1) < 3e-3, (fb, ft)     # a real shear, the same
     contact, slipping = body.pairs["interface"].status()
-    assert slipping < contact and (slipping > 0 or law == "quasi-coulomb"), (contact, slipping)
+    assert slipping < contact and (slipping > 0 or "quasi" in sets[0]), (contact, slipping)
 
 
 def test_friction_between_bodies_slips_at_mu_times_the_normal_force():

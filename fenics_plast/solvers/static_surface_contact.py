@@ -183,9 +183,8 @@ class SurfaceContactTerm:
         on = self._active
         if not len(on):
             return
-        eq = self._equations_of(on).astype(PETSc.IntType)
-        for k, i in enumerate(on):
-            A.setValues(eq[k], eq[k], self.K[i], addv=PETSc.InsertMode.ADD)
+        eq = np.ascontiguousarray(self._equations_of(on), dtype=PETSc.IntType)
+        A.setValuesRCV(eq, eq, np.ascontiguousarray(self.K[on]), addv=PETSc.InsertMode.ADD)    # one block a node
 
     # -- reports (collective) --------------------------------------------------------------------
     def pressures(self):

@@ -196,8 +196,10 @@ class ToolContactTerm:
         """A += -df/dx of the last :meth:`residual` (the nodes in contact; constrained dofs skipped)."""
         if self._rows is None:
             self._rows = self._global_equations()
-        for k in np.flatnonzero(self.g < 0.0):
-            A.setValues(self._rows[k], self._rows[k], -self.K[k], addv=PETSc.InsertMode.ADD)
+        on = np.flatnonzero(self.g < 0.0)
+        if len(on):
+            rows = np.ascontiguousarray(self._rows[on])
+            A.setValuesRCV(rows, rows, np.ascontiguousarray(-self.K[on]), addv=PETSc.InsertMode.ADD)
 
     def _global_equations(self):
         """(n, dim) global equation numbers of the nodes' dofs, -1 where a Dirichlet condition holds one."""
