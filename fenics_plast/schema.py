@@ -320,7 +320,7 @@ SCHEMA: dict[str, Table] = {
     "tools": _tools_table(),
     "contact": Table(
         "Contact pairs, one table per name: the nodes of a facet group of the body against a master surface, "
-        "a rigid tool or a facet group of the body (another body's; its own: self-contact, explicit) "
+        "a rigid tool or a facet group of the body (another body's; its own: self-contact) "
         "(penalty, nodal rule).",
         collection=True, keys={
             "tool": Key("str", OPTIONAL, "Name of a [tools.<name>] table: the master surface is that rigid "
@@ -329,7 +329,7 @@ SCHEMA: dict[str, Table] = {
                           "body: the master surface is that part of the body's boundary at its current "
                           "positions; two bodies are two regions of one mesh. Each force on a node of `group` "
                           "has its reaction on the nodes of the master facet it presses on. Exactly one of tool "
-                          "and master. `group` itself: self-contact (explicit; a node against the facets of its "
+                          "and master. `group` itself: self-contact (a node against the facets of its "
                           "own group that face it, not its own). Friction as for tools, in both analyses."),
             "two_pass": Key("bool", OPTIONAL, "With master: also the master group's nodes against the group's "
                             "facets, the same law and penalty (symmetric: neither side passes through the "

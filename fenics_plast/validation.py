@@ -438,9 +438,6 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
                    f"of the body)")
         elif c.tool is not None and c.tool not in tools:
             v.fail(f"contact.{n}.tool = {c.tool!r} is not a tool: tools are {', '.join(tools) or 'none'}")
-        elif master is not None and master == c.group and not explicit:
-            v.fail(f"contact.{n}.master = {master!r} is the pair's own group: self-contact is for explicit "
-                   f"analyses")
         elif master is not None and master == c.group and c.get("two_pass") is not None:
             v.fail(f"contact.{n}.two_pass: a self-contact pair (master = group) has one pass, its nodes against "
                    f"its own facets")

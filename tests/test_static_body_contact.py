@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scene_runs import MPIRUN, needs_mpirun
+from scene_runs import MPIRUN, history, needs_mpirun, run_scene
 
 REPO = Path(__file__).resolve().parents[1]
 E, NU, R = 210e3, 0.3, 10.0          # demos/hertz_sphere.toml
@@ -257,3 +257,21 @@ def test_friction_between_bodies_slips_at_mu_times_the_normal_force():
     assert abs(abs(pair.force()[0]) - 0.3 * pair.normal_force()) < 1e-5 * pair.normal_force()   # normals ~ y
     orders = observed_orders(b.solver)
     assert len(orders) >= 3 and np.median(orders) > 1.5, orders
+
+
+def test_static_self_contact_u_arms_stop_on_each_other(tmp_path):
+    """Static self-contact (tests/scenes/u_closing.toml): two rollers push the U's arms toward each other by 1.2 mm
+    each, 0.2 mm more than the gap between the tips allows. Without the pair (a penalty of 1e-3 N/mm^3) the inner
+    tips pass through each other (measured: by 0.68 mm); with it they stop on each other at the middle, closer
+    than the penalty's penetration (measured: -1.3e-4 mm), the arms mirror each other, and every increment
+    converges."""
+    scene = REPO / "tests" / "scenes" / "u_closing.toml"
+    free = tmp_path / "free"
+    run_scene(scene, free, "contact.inner.penalty=1e-3", "output.xdmf=false", "output.plots=false")
+    assert history(free)["tip_gap"][-1] < -0.5
+    held = tmp_path / "held"
+    s = run_scene(scene, held, "output.xdmf=false", "output.plots=false")
+    h = history(held)
+    assert s["converged"] and h["tip_gap"][-1] < 1e-2             # the tips met (they were 2 mm apart)
+    assert h["tip_gap"].min() > -1e-3
+    np.testing.assert_allclose(h["left_tip_mm"] - 3.0, 3.0 - h["right_tip_mm"], atol=1e-9)   # the mirror image

@@ -23,8 +23,10 @@ the gap (so that it does not cross g = 0; not below 1e-10 of the facet's size), 
 ``tests/test_static_body_contact.py`` holds the analytic tangent to central differences, measures Newton's
 rates and checks friction between two bodies against friction on a rigid tool.
 
-History (per slave node, stored by :meth:`SurfaceContactTerm.commit` at each converged increment): the
-traction, normal and pressure, and the displacement of every node. Rows and columns of constrained dofs
+Self-contact (the master surface is the slave group itself): a node searches only the facets whose normals
+face its own (:data:`~fenics_plast.solvers.surface_gaps.SELF_CONTACT_FACING`), never its own, as in the
+explicit solver. History (per slave node, stored by :meth:`SurfaceContactTerm.commit` at each converged
+increment): the traction, normal and pressure, and the displacement of every node. Rows and columns of constrained dofs
 (Dirichlet conditions) take no entries; the entries couple nodes of the two groups that the forms' sparsity
 does not hold, so the solver's matrix accepts new nonzeros (MUMPS analyses the pattern again when it grows).
 Units mm, N, MPa.
@@ -86,6 +88,7 @@ class SurfaceContactTerm:
             raise ValueError(f"contact pair {self.name!r}: facet group {tag} has no facets (zero area)")
         imap = Vc.dofmap.index_map
         self.skip = surface.skip_of(imap.local_to_global(blocks.astype(np.int32)))
+        self.self_contact = surface.tag == tag          # the group against its own facets
         self._equations_built = False                           # at the first residual (bcs complete)
         n = len(blocks)
         self.g, self.N = np.zeros(n), np.zeros((n, d))
@@ -129,8 +132,10 @@ class SurfaceContactTerm:
         du = u - self.u_c                               # since the last commit: the slip's measure
         self.surface.move(u, du)
         x = self.X + u[self.dofs]
-        nearest_points(self.surface.surface, x, self.skip, self.g, self.N, self.facet, self.weights)
         surf = self.surface.surface
+        # self-contact: a node searches only the facets that face its own normal, never its own
+        facing = surf.vertex_normals[self.skip] if self.self_contact else None
+        nearest_points(surf, x, self.skip, self.g, self.N, self.facet, self.weights, facing=facing)
         _node_terms(x, du[self.dofs], self.area, self.facet, surf.vertices, self.surface.increment, surf.facets,
                     self._law, self.t_n, self.N_n, self.p_n, self.r, self.K, self.g, self.N, self.t, self.p,
                     self.slip)
