@@ -122,7 +122,7 @@ def _bottom_nodes(sol, pair):
     if isinstance(pair, ToolContactTerm):
         on = np.isclose(pair.X[:, 1], 0.0)
         o = np.argsort(pair.X[on, 0])
-        return pair.t_n[on, 0][o], sol.w.x.array[pair.idx[on, 0]][o]
+        return pair.hist.t_n[on, 0][o], sol.w.x.array[pair.idx[on, 0]][o]
     H = pair.H
     XH = H.tabulate_dof_coordinates()
     nH = H.dofmap.index_map.size_local

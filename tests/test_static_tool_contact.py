@@ -57,7 +57,8 @@ def _block(dim, kind):
     val = np.concatenate([np.full(len(bot), BOTTOM, np.int32), np.full(len(top), TOP, np.int32)])
     o = np.argsort(idx)
     ft = dm.meshtags(msh, fdim, idx[o], val[o])
-    s = StaticSolver(Kinematics(msh, kind), Material(1000.0, 0.3, Hardening("linear", yield_stress=20.0, modulus=200.0)), element="q1p0",
+    material = Material(1000.0, 0.3, Hardening("linear", yield_stress=20.0, modulus=200.0))
+    s = StaticSolver(Kinematics(msh, kind), material, element="q1p0",
                      rtol=1e-12, atol=1e-10, verbose=False)
     for c in range(dim):
         s.add_dirichlet(c, ft, TOP, 0.0)

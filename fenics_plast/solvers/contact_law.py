@@ -109,3 +109,30 @@ def node_law(g, N, dN, s, t_n, N_n, p_n, area, eps, eps_t, mu, law, f, t, K):
     for i in range(dim):
         f[i] += area * t[i]
     return p, 0.0 if stick else 1.0
+
+
+class NodeHistory:
+    """The state of a pair's nodes at the last commit that :func:`node_law` reads: traction t_n (n, dim) [MPa],
+    normal N_n (n, dim) and pressure p_n (n,) [MPa], with their checkpoint keys: ``node_keys`` (n,) the key of
+    each node's first displacement component (node * SLOTS, :func:`fenics_plast.checkpoint.dof_keys`), the
+    history's components keyed node * SLOTS + 0 .. 2 dim (as the forms' CG1 history Function: either static
+    route restarts from the other's checkpoint)."""
+
+    def __init__(self, n, dim, node_keys):
+        self.dim = dim
+        self.t_n, self.N_n, self.p_n = np.zeros((n, dim)), np.zeros((n, dim)), np.zeros(n)
+        self.keys = (np.asarray(node_keys, dtype=np.int64)[:, None] + np.arange(2 * dim + 1)).ravel()
+
+    def store(self, t, N, p):
+        """Commit the tractions t (n, dim), normals N (n, dim) and pressures p (n,) of the current state."""
+        self.t_n[:], self.N_n[:], self.p_n[:] = t, N, p
+
+    def keyed(self):
+        """(values (n (2 dim + 1),), keys) for a checkpoint."""
+        return np.concatenate([self.t_n, self.N_n, self.p_n[:, None]], axis=1).ravel(), self.keys
+
+    def load(self, values):
+        """Restore :meth:`keyed`'s values (in this history's node order)."""
+        d = self.dim
+        h = np.asarray(values).reshape(-1, 2 * d + 1)
+        self.store(h[:, :d], h[:, d:2 * d], h[:, 2 * d])

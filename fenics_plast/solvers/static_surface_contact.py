@@ -19,7 +19,8 @@ vertices' positions). Without friction, inside a segment (2-D), K is the node-to
 consistent linearisation (Wriggers, Computational Contact Mechanics, 2006, sec. 9.1:
 :func:`_segment_tangent`); otherwise (friction, a segment's end, triangles in 3-D) it is the central
 difference of the element's closed-form force, the step 1e-7 of the facet's size and below a thousandth of
-the gap (so that it does not cross g = 0; not below 1e-10 of the facet's size), the history and the committed positions held.
+the gap (so that it does not cross g = 0; not below 1e-10 of the facet's size), the history and the
+committed positions held.
 ``tests/test_static_body_contact.py`` holds the analytic tangent to central differences, measures Newton's
 rates and checks friction between two bodies against friction on a rigid tool.
 
@@ -42,7 +43,7 @@ from petsc4py import PETSc
 
 from fenics_plast import dolfinx_compat as dc
 from fenics_plast.solvers.body_surface import BodySurface, TwoPassPair, tributary_areas
-from fenics_plast.solvers.contact_law import COULOMB, QUASI_COULOMB, node_law
+from fenics_plast.solvers.contact_law import COULOMB, QUASI_COULOMB, NodeHistory, node_law
 from fenics_plast.solvers.surface_gaps import nearest_points, segment_nearest, triangle_nearest
 from fenics_plast.solvers.tool_gaps import FLAGS
 
@@ -73,7 +74,8 @@ class SurfaceContactTerm:
         self.surface, self.penalty, self.name, self.tag = surface, float(penalty), name or "contact", tag
         self.tangential_penalty = float(tangential_penalty if tangential_penalty else penalty)
         self.friction, self.law = float(friction), law
-        self._law = (self.penalty, self.tangential_penalty, self.friction, COULOMB if law == "coulomb" else QUASI_COULOMB)
+        code = COULOMB if law == "coulomb" else QUASI_COULOMB
+        self._law = (self.penalty, self.tangential_penalty, self.friction, code)
         self.comm = s.comm
         Vc, vmap = s.displacement_space()
         d = self.dim = Vc.dofmap.index_map_bs
@@ -97,10 +99,8 @@ class SurfaceContactTerm:
         self.K = np.zeros((n, (1 + d) * d, (1 + d) * d))
         self.t, self.p, self.slip = np.zeros((n, d)), np.zeros(n), np.zeros(n)
         # history at the last commit: the slaves' traction, normal, pressure; the displacement (Vc numbering)
-        self.t_n, self.N_n, self.p_n = np.zeros((n, d)), np.zeros((n, d)), np.zeros(n)
+        self.hist = NodeHistory(n, d, dof_keys(Vc)[self.dofs[:, 0]])
         self.u_c = np.asarray(contact.w_c.x.array[vmap]).copy()
-        self.hist_size = 2 * d + 1
-        self._hist_keys = (dof_keys(Vc)[self.dofs[:, 0]][:, None] + np.arange(self.hist_size)).ravel()
 
     # -- equation numbers ----------------------------------------------------------------------
     def _global_equations(self, local_w):
@@ -136,9 +136,9 @@ class SurfaceContactTerm:
         # self-contact: a node searches only the facets that face its own normal, never its own
         facing = surf.vertex_normals[self.skip] if self.self_contact else None
         nearest_points(surf, x, self.skip, self.g, self.N, self.facet, self.weights, facing=facing)
+        h = self.hist
         _node_terms(x, du[self.dofs], self.area, self.facet, surf.vertices, self.surface.increment, surf.facets,
-                    self._law, self.t_n, self.N_n, self.p_n, self.r, self.K, self.g, self.N, self.t, self.p,
-                    self.slip)
+                    self._law, h.t_n, h.N_n, h.p_n, self.r, self.K, self.g, self.N, self.t, self.p, self.slip)
 
     def residual(self, b):
         """b -= the contact forces at the solver's current state (global entries; off-process ones are
@@ -159,7 +159,7 @@ class SurfaceContactTerm:
         """Store the history (the slaves' traction, normal, pressure; the displacement) at the current
         (converged) state; collective."""
         self.evaluate()
-        self.t_n[:], self.N_n[:], self.p_n[:] = self.t, self.N, self.p
+        self.hist.store(self.t, self.N, self.p)
         self.u_c[:] = self.solver.w.x.array[self.vmap]
 
     def keep_gaps(self, lam) -> None:
@@ -167,15 +167,13 @@ class SurfaceContactTerm:
 
     # -- checkpoints ----------------------------------------------------------------------------
     def history(self):
-        """(values, keys) of the committed history (t_n, N_n, p_n) of the owned slave nodes (node * SLOTS +
-        component, as the tool pairs')."""
-        return np.concatenate([self.t_n, self.N_n, self.p_n[:, None]], axis=1).ravel(), self._hist_keys
+        """(values, keys) of the committed history (t_n, N_n, p_n) of the owned slave nodes
+        (:class:`~fenics_plast.solvers.contact_law.NodeHistory`)."""
+        return self.hist.keyed()
 
     def load_history(self, values):
         """Restore :meth:`history`'s values (the caller has restored the set's ``w_c``)."""
-        h = np.asarray(values).reshape(-1, self.hist_size)
-        d = self.dim
-        self.t_n[:], self.N_n[:], self.p_n[:] = h[:, :d], h[:, d:2 * d], h[:, 2 * d]
+        self.hist.load(values)
         self.u_c[:] = self.contact.w_c.x.array[self.vmap]
 
     def _equations_of(self, rows):
@@ -211,7 +209,7 @@ class SurfaceContactTerm:
         the vector (3,)."""
         if self.dim == 3:
             return self.comm.allreduce((self.area[:, None] * self.t).sum(axis=0), op=MPI.SUM)
-        Nf = self.N if self._law[3] == COULOMB else self.N_n
+        Nf = self.N if self._law[3] == COULOMB else self.hist.N_n
         return self.comm.allreduce(float(np.dot(self.area, self.t[:, 0] * Nf[:, 1] - self.t[:, 1] * Nf[:, 0])),
                                    op=MPI.SUM)
 

@@ -32,7 +32,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from fenics_plast.solvers.contact_kernels import GENERIC
-from fenics_plast.solvers.contact_law import COULOMB, QUASI_COULOMB, node_law
+from fenics_plast.solvers.contact_law import COULOMB, QUASI_COULOMB, NodeHistory, node_law
 from fenics_plast.solvers.tool_gaps import FLAGS, gap_2d, gap_3d
 from fenics_plast.tools import compiled_shape
 
@@ -150,11 +150,8 @@ class ToolContactTerm:
         self.X, self.idx, blocks = pair_nodes(s, facet_tags, tag, d)       # (n, dim) [mm], (n, dim) w entries
         self.area = tributary_areas(Vc, s.kin.weight, facet_tags, tag)[blocks * Vc.dofmap.index_map_bs]
         from fenics_plast.checkpoint import dof_keys
-        self.hist_size = 2 * d + 1
-        self._hist_keys = (dof_keys(Vc)[blocks * Vc.dofmap.index_map_bs][:, None]
-                           + np.arange(self.hist_size)).ravel()
         n = len(self.X)
-        self.t_n, self.N_n, self.p_n = np.zeros((n, d)), np.zeros((n, d)), np.zeros(n)
+        self.hist = NodeHistory(n, d, dof_keys(Vc)[blocks * Vc.dofmap.index_map_bs])
         self.u_c = np.zeros((n, d))             # the nodes' displacement at the last commit [mm]
         self.u_c[:] = contact.w_c.x.array[self.idx]
         self.g, self.N, self.dN = np.zeros(n), np.zeros((n, d)), np.zeros((n, d, d))
@@ -176,13 +173,14 @@ class ToolContactTerm:
         else:
             analytic_geometry(self.kind, self.params, x, self._translation(s.lam), self.g, self.N, self.dN)
         slip = u - self.u_c - (self._translation(s.lam) - self._translation(self.contact.lam_c.value))
-        node_forces(self.g, self.N, self.dN, slip, self.t_n, self.N_n, self.p_n, self.area, self.penalty,
+        h = self.hist
+        node_forces(self.g, self.N, self.dN, slip, h.t_n, h.N_n, h.p_n, self.area, self.penalty,
                     self.tangential_penalty, self.friction, self._law, self.f, self.K, self.t, self.p, self.slip)
 
     def commit(self):
         """Store the history (t_n, N_n, p_n, u_c) at the current (converged) state."""
         self.evaluate()
-        self.t_n[:], self.N_n[:], self.p_n[:] = self.t, self.N, self.p
+        self.hist.store(self.t, self.N, self.p)
         self.u_c[:] = self.solver.w.x.array[self.idx]
 
     # -- the solver's calls ---------------------------------------------------------------------
@@ -215,15 +213,12 @@ class ToolContactTerm:
 
     # -- checkpoints ----------------------------------------------------------------------------
     def history(self):
-        """(values, keys) of the committed history (t_n, N_n, p_n) of the owned nodes, keyed as the forms'
-        CG1 history Function (node * SLOTS + component): either route restarts from the other's checkpoint."""
-        return np.concatenate([self.t_n, self.N_n, self.p_n[:, None]], axis=1).ravel(), self._hist_keys
+        """(values, keys) of the committed history (t_n, N_n, p_n) of the owned nodes (:class:`NodeHistory`)."""
+        return self.hist.keyed()
 
     def load_history(self, values):
         """Restore :meth:`history`'s values (the caller has restored the set's ``w_c``)."""
-        h = np.asarray(values).reshape(-1, self.hist_size)
-        d = self.gdim
-        self.t_n[:], self.N_n[:], self.p_n[:] = h[:, :d], h[:, d:2 * d], h[:, 2 * d]
+        self.hist.load(values)
         self.u_c[:] = self.contact.w_c.x.array[self.idx]
 
     # -- reports (collective, at the current state) ---------------------------------------------
@@ -247,7 +242,7 @@ class ToolContactTerm:
             return self._sum((self.area[:, None] * self.t).sum(axis=0))
         if self.friction <= 0.0:
             return 0.0
-        Nf = self.N if self._law == COULOMB else self.N_n
+        Nf = self.N if self._law == COULOMB else self.hist.N_n
         return self._sum(float(np.dot(self.area, self.t[:, 0] * Nf[:, 1] - self.t[:, 1] * Nf[:, 0])))
 
     def status(self):
