@@ -136,6 +136,7 @@ class ToolContactTerm:
     arguments); ``contact`` is that set (its committed state ``w_c``, ``lam_c``). Collective construction."""
 
     def __init__(self, contact, tool, facet_tags, tag, *, penalty, friction, law, tangential_penalty=None):
+        from fenics_plast.checkpoint import dof_keys
         from fenics_plast.solvers.body_surface import tributary_areas
         self.contact, self.tool, self.facet_tags, self.tag = contact, tool, facet_tags, tag
         s = self.solver = contact.solver
@@ -149,11 +150,9 @@ class ToolContactTerm:
         Vc, _ = s.displacement_space()
         self.X, self.idx, blocks = pair_nodes(s, facet_tags, tag, d)       # (n, dim) [mm], (n, dim) w entries
         self.area = tributary_areas(Vc, s.kin.weight, facet_tags, tag)[blocks * Vc.dofmap.index_map_bs]
-        from fenics_plast.checkpoint import dof_keys
         n = len(self.X)
         self.hist = NodeHistory(n, d, dof_keys(Vc)[blocks * Vc.dofmap.index_map_bs])
-        self.u_c = np.zeros((n, d))             # the nodes' displacement at the last commit [mm]
-        self.u_c[:] = contact.w_c.x.array[self.idx]
+        self.u_c = contact.w_c.x.array[self.idx].copy()     # the nodes' displacement at the last commit [mm]
         self.g, self.N, self.dN = np.zeros(n), np.zeros((n, d)), np.zeros((n, d, d))
         self.f, self.K, self.t = np.zeros((n, d)), np.zeros((n, d, d)), np.zeros((n, d))
         self.p, self.slip = np.zeros(n), np.zeros(n)
