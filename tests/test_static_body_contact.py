@@ -154,6 +154,26 @@ def test_hertz_serial_equals_two_ranks(tmp_path):
     np.testing.assert_allclose(forces[1], forces[0], rtol=1e-8, atol=1e-12)
 
 
+@pytest.mark.mpi
+@needs_mpirun
+def test_friction_between_bodies_serial_equals_two_ranks(tmp_path):
+    """The sliding blocks (coulomb, two passes) on 2 ranks: the nodal history, the committed displacements and
+    the master surfaces on each rank give the serial run's friction and normal forces (to 1e-8)."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "OPAL_"))}
+    runs = []
+    for name, launch in (("serial", []), ("mpi", [MPIRUN, "--allow-run-as-root", "--oversubscribe", "-n", "2"])):
+        r = subprocess.run([*launch, sys.executable, "-m", "fenics_plast.cli", "run",
+                            str(REPO / "tests" / "scenes" / "sliding_blocks.toml"), "--out", str(tmp_path / name),
+                            "--set", "output.xdmf=false", "--set", "output.plots=false"],
+                           capture_output=True, text=True, timeout=900, env=env)
+        assert r.returncode == 0, r.stderr[-3000:]
+        runs.append(history(tmp_path / name))
+    for column in ("friction_x_kN", "friction_y_kN"):
+        scale = runs[0]["friction_y_kN"].max()
+        np.testing.assert_allclose(runs[1][column], runs[0][column], rtol=1e-8, atol=1e-9 * scale)
+    assert abs(runs[0]["friction_x_kN"][-1]) > 1e-3
+
+
 def rigid_die_scene(tmp_path):
     """demos/elastic_die.toml without the die: the billet's top itself displaced by the die's travel (a rigid,
     frictionless die)."""
