@@ -58,7 +58,7 @@ def node_law(g, N, dN, s, t_n, N_n, p_n, area, eps, eps_t, mu, law, f, t, K):
         K[:, :] = 0.0
     if g >= 0.0:
         return 0.0, 0.0
-    p = eps * -g
+    p = eps * -g                                                                   # eqs. 17-18
     for i in range(dim):
         f[i] = area * p * N[i]
     if tangent:
@@ -68,14 +68,14 @@ def node_law(g, N, dN, s, t_n, N_n, p_n, area, eps, eps_t, mu, law, f, t, K):
     if mu <= 0.0:
         return p, 1.0
     coulomb = law == COULOMB
-    Nf = N if coulomb else N_n
+    Nf = N if coulomb else N_n                                                     # eq. 24: N_n, p_n frozen
     b = mu * p if coulomb else mu * p_n
     rn = 0.0
     for i in range(dim):
         rn += Nf[i] * (t_n[i] - eps_t * s[i])
     qq = 0.0
     for i in range(dim):
-        t[i] = t_n[i] - eps_t * s[i] - rn * Nf[i]                                  # q, for now
+        t[i] = t_n[i] - eps_t * s[i] - rn * Nf[i]                                  # q (eqs. 19-21), for now
         qq += t[i] * t[i]
     stick = qq <= b * b
     qn = math.sqrt(qq)
@@ -103,7 +103,7 @@ def node_law(g, N, dN, s, t_n, N_n, p_n, area, eps, eps_t, mu, law, f, t, K):
                         P += ((1.0 if i == m else 0.0) - t[i] * t[m] / qq) * dq[m, j]
                     db = -mu * eps * N[j] if coulomb else 0.0
                     K[i, j] += area * (t[i] / qn * db + b / qn * P)
-    if not stick:
+    if not stick:                                                                  # eq. 22: |t| = b
         for i in range(dim):
             t[i] *= b / qn
     for i in range(dim):
