@@ -249,6 +249,6 @@ class RevolvedProfile(Tool):
                          body_side=body_side)
 
 
-__all__ = ["Tool", "compiled_shape", "Plane", "Circle", "Profile", "Sphere", "Cylinder", "Torus", "RevolvedProfile", "TINY",
-           "PENALTY_FACTOR", "default_penalty",
+__all__ = ["Tool", "compiled_shape", "Plane", "Circle", "Profile", "Sphere", "Cylinder", "Torus", "RevolvedProfile",
+           "TINY", "PENALTY_FACTOR", "default_penalty",
            "contact_length_scale", "piecewise_path"]

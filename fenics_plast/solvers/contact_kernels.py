@@ -164,8 +164,8 @@ def contact_forces_3d(u, du, dt, c, trans_old, trans_new, fcon):
     trans_old, trans_new (npairs, 3) [mm], t_hist (nc, 3) [MPa], N_hist (nc, 3), fc (nc, 3) [N],
     acc (npairs, 5) += (E_c, tool work, impulse x, y, z) [N mm, N mm, N s x 3].
 
-    The law of :func:`~fenics_plast.solvers.contact_law.node_law`: the trial traction P_T (t_n - eps_t s), s = du - dd,
-    returned on its norm to the bound (2-D: T T^T = P_T, the same law).  t_hist gets the
+    The law of :func:`~fenics_plast.solvers.contact_law.node_law`: the trial traction P_T (t_n - eps_t s),
+    s = du - dd, returned on its norm to the bound (2-D: T T^T = P_T, the same law).  t_hist gets the
     vector t, t_scal its norm |t| [MPa]; slip, fc, fcon, N_hist, p_hist, pen as in 2-D.
     """
     X, cdofs, cpair, area, kind, params, gN = c.X, c.dofs, c.pair, c.area, c.kind, c.params, c.gN
