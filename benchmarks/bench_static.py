@@ -167,6 +167,7 @@ def contact_cost(scene: str, sets: list) -> tuple[float, float]:
     from fenics_plast.contact import PenaltyContact
     from fenics_plast.problem import load_problem
     from fenics_plast.runner_static import build_static
+    from fenics_plast.solvers.static_tool_contact import ToolContactTerm
     overrides = [sets[i + 1] for i in range(0, len(sets), 2) if sets[i] == "--set"]
     b = build_static(load_problem(ROOT / scene, overrides), MPI.COMM_SELF)
     s = b.solver
@@ -174,7 +175,7 @@ def contact_cost(scene: str, sets: list) -> tuple[float, float]:
         return 0.0, 0.0
     forms = PenaltyContact(s, compiled=False)
     for p in b.contact.pairs:
-        if not hasattr(p, "tool"):          # a pair between facet groups of the body: no forms route
+        if not isinstance(p, ToolContactTerm):  # a pair between facet groups of the body: no forms route
             continue
         forms.add_pair(p.tool, p.facet_tags, p.tag, penalty=p.penalty, friction=p.friction, law=p.law,
                        tangential_penalty=p.tangential_penalty)

@@ -747,6 +747,19 @@ class StaticSolver:
         local = float(np.sum(self.internal_force()[dofs]))
         return self.comm.allreduce(local, op=MPI.SUM)
 
+    def equation_numbers(self, local_w):
+        """Global equation numbers (PETSc's) of the entries ``local_w`` (any shape) of ``w``'s local array, -1
+        where a Dirichlet condition holds the dof (PETSc skips negative indices): the rows and columns of
+        terms assembled outside the forms (``terms``). Call after every Dirichlet condition is added."""
+        imap, bs = self.W.dofmap.index_map, self.W.dofmap.index_map_bs
+        local_w = np.asarray(local_w, dtype=np.int64)
+        flat = local_w.ravel()
+        glob = imap.local_to_global((flat // bs).astype(np.int32)).astype(np.int64) * bs + flat % bs
+        constrained = np.zeros(len(self.w.x.array), dtype=bool)
+        for bc in self.bcs:
+            constrained[dc.bc_dofs(bc)] = True
+        return np.where(constrained[flat], -1, glob).reshape(local_w.shape).astype(PETSc.IntType)
+
     def displacement_space(self):
         """(the displacement space as a space of its own, the map from its unrolled dofs into
         ``w``): the collapsed subspace for q1p0 (mixed with the dilatation), the space itself for q1."""

@@ -41,7 +41,6 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from fenics_plast import dolfinx_compat as dc
 from fenics_plast.solvers.body_surface import BodySurface, TwoPassPair, tributary_areas
 from fenics_plast.solvers.contact_law import COULOMB, QUASI_COULOMB, NodeHistory, node_law
 from fenics_plast.solvers.surface_gaps import nearest_points, segment_nearest, triangle_nearest
@@ -103,26 +102,12 @@ class SurfaceContactTerm:
         self.u_c = np.asarray(contact.w_c.x.array[vmap]).copy()
 
     # -- equation numbers ----------------------------------------------------------------------
-    def _global_equations(self, local_w):
-        """Global equation numbers of the solver's w dofs (local indices); -1 where a Dirichlet condition
-        holds the dof (PETSc skips negative indices)."""
-        s = self.solver
-        W = s.W
-        imap, bs = W.dofmap.index_map, W.dofmap.index_map_bs
-        local_w = np.asarray(local_w, dtype=np.int64)
-        flat = local_w.ravel()
-        glob = imap.local_to_global((flat // bs).astype(np.int32)).astype(np.int64) * bs + flat % bs
-        return np.where(self._constrained[flat], -1, glob).reshape(local_w.shape)
-
     def _build_equations(self):
+        """The global equations of the slave nodes' and the master surface's dofs (-1: a Dirichlet dof)."""
         s = self.solver
-        n_local = len(s.w.x.array)
-        self._constrained = np.zeros(n_local, dtype=bool)
-        for bc in s.bcs:
-            self._constrained[dc.bc_dofs(bc)] = True
-        self._slave_eq = self._global_equations(self.vmap[self.dofs])                 # (n, dim)
+        self._slave_eq = s.equation_numbers(self.vmap[self.dofs])                     # (n, dim)
         surf = self.surface
-        self._master_eq = surf.global_rows(self._global_equations(self.vmap[surf.dofs]))   # (nv, dim)
+        self._master_eq = surf.global_rows(s.equation_numbers(self.vmap[surf.dofs]))  # (nv, dim)
 
     # -- the solver's calls --------------------------------------------------------------------
     def evaluate(self):
@@ -193,7 +178,7 @@ class SurfaceContactTerm:
     def pressures(self):
         """(positions (n, dim) [mm], p (n,) [MPa]) of this rank's slave nodes at the last residual."""
         u = self.solver.w.x.array[self.vmap]
-        return self.X + u[self.dofs], self.penalty * np.maximum(-self.g, 0.0)
+        return self.X + u[self.dofs], self.p.copy()
 
     def force(self):
         """Total contact force on the slave nodes [N] (dim,) at the last residual (2 pi r included in

@@ -167,11 +167,12 @@ class ToolContactTerm:
         s = self.solver
         u = s.w.x.array[self.idx]
         x = self.X + u
+        d = self._translation(s.lam)
         if self.kind == GENERIC:                # a meshed tool: its own search
             self.g[:], self.N[:], self.dN[:] = self.tool.nodal_gap(x, s.lam)
         else:
-            analytic_geometry(self.kind, self.params, x, self._translation(s.lam), self.g, self.N, self.dN)
-        slip = u - self.u_c - (self._translation(s.lam) - self._translation(self.contact.lam_c.value))
+            analytic_geometry(self.kind, self.params, x, d, self.g, self.N, self.dN)
+        slip = u - self.u_c - (d - self._translation(self.contact.lam_c.value))
         h = self.hist
         node_forces(self.g, self.N, self.dN, slip, h.t_n, h.N_n, h.p_n, self.area, self.penalty,
                     self.tangential_penalty, self.friction, self._law, self.f, self.K, self.t, self.p, self.slip)
@@ -192,23 +193,11 @@ class ToolContactTerm:
     def jacobian(self, A):
         """A += -df/dx of the last :meth:`residual` (the nodes in contact; constrained dofs skipped)."""
         if self._rows is None:
-            self._rows = self._global_equations()
+            self._rows = self.solver.equation_numbers(self.idx)     # (n, dim), -1: a Dirichlet dof
         on = np.flatnonzero(self.g < 0.0)
         if len(on):
             rows = np.ascontiguousarray(self._rows[on])
             A.setValuesRCV(rows, rows, np.ascontiguousarray(-self.K[on]), addv=PETSc.InsertMode.ADD)
-
-    def _global_equations(self):
-        """(n, dim) global equation numbers of the nodes' dofs, -1 where a Dirichlet condition holds one."""
-        s = self.solver
-        imap, bs = s.W.dofmap.index_map, s.W.dofmap.index_map_bs
-        flat = self.idx.ravel()
-        glob = imap.local_to_global((flat // bs).astype(np.int32)).astype(np.int64) * bs + flat % bs
-        constrained = np.zeros(len(s.w.x.array), dtype=bool)
-        from fenics_plast import dolfinx_compat as dc
-        for bc in s.bcs:
-            constrained[dc.bc_dofs(bc)] = True
-        return np.where(constrained[flat], -1, glob).reshape(self.idx.shape).astype(PETSc.IntType)
 
     # -- checkpoints ----------------------------------------------------------------------------
     def history(self):
