@@ -112,13 +112,13 @@ def test_node_to_segment_tangent_is_the_force_derivative(case, friction):
 
         def residual(xs, verts, dxs, dverts):
             r, K, g, N = np.zeros((1, 6)), np.zeros((1, 6, 6)), np.zeros(1), np.zeros((1, 2))
-            t, p, slip = np.zeros((1, 2)), np.zeros(1), np.zeros(1)
+            t, p, slip, pressed = np.zeros((1, 2)), np.zeros(1), np.zeros(1), np.zeros(1, dtype=bool)
             _node_terms(xs, dxs, np.array([0.7]), np.array([0]), verts, dverts, F, law, t_n, N_n, p_n, r, K, g, N,
-                        t, p, slip)
-            return r[0], K[0], g[0], slip[0]
+                        t, p, slip, pressed)
+            return r[0], K[0], g[0], slip[0], pressed[0]
 
-        r, K, g, slip = residual(x, V, dx, dV)
-        assert g < 0 and slip == 1.0
+        r, K, g, slip, pressed = residual(x, V, dx, dV)
+        assert g < 0 and slip == 1.0 and pressed
         h = 1e-7
         fd = np.zeros((6, 6))
         for c in range(6):
@@ -132,6 +132,31 @@ def test_node_to_segment_tangent_is_the_force_derivative(case, friction):
                     a[(c - 2) // 2, c % 2] += s
             fd[:, c] = (residual(xp, Vp, dxp, dVp)[0] - residual(xm, Vm, dxm, dVm)[0]) / (2 * h)
         np.testing.assert_allclose(K, fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
+
+
+@pytest.mark.parametrize("friction", [0.0, 0.3])
+def test_a_touching_node_has_the_pressed_sides_tangent_on_either_side_of_zero(friction):
+    """A node touching its segment has the tangent of the pressed side whether round-off puts its gap at
+    -1e-16 or +1e-16 mm (before: at +2.2e-16 it had none, its neighbours at 0 had theirs, and Newton
+    stalled on the sliding blocks on one machine; surface TOUCHING); 1e-6 mm away it has none."""
+    from fenics_plast.solvers.static_surface_contact import _node_terms
+    law = (1e4, 1e4, friction, 0)
+    V, F = np.array([[0.0, 0.0], [1.0, 0.0]]), np.array([[0, 1]])
+
+    def terms(gap):
+        r, K, g, N = np.zeros((1, 6)), np.zeros((1, 6, 6)), np.zeros(1), np.zeros((1, 2))
+        t, p, slip, pressed = np.zeros((1, 2)), np.zeros(1), np.zeros(1), np.zeros(1, dtype=bool)
+        _node_terms(np.array([[0.4, gap]]), np.zeros((1, 2)), np.array([0.7]), np.array([0]), V, np.zeros((2, 2)),
+                    F, law, np.zeros((1, 2)), np.array([[0.0, 1.0]]), np.zeros(1), r, K, g, N, t, p, slip, pressed)
+        return K[0], pressed[0], g[0]
+
+    K_minus, pressed_minus, g_minus = terms(-1e-16)
+    K_plus, pressed_plus, g_plus = terms(1e-16)
+    assert g_minus < 0.0 < g_plus and pressed_minus and pressed_plus
+    assert abs(K_minus[1, 1]) > 1e3                    # the normal stiffness, ~ penalty x area
+    np.testing.assert_allclose(K_plus, K_minus, rtol=1e-6, atol=1e-9 * np.abs(K_minus).max())
+    K_apart, pressed_apart, _ = terms(1e-6)
+    assert not pressed_apart and not K_apart.any()
 
 
 @pytest.mark.mpi

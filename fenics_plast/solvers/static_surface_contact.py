@@ -50,6 +50,10 @@ _njit = numba.njit(cache=True, **FLAGS)
 
 #: central-difference step of the element tangent, relative to the facet's longest edge
 FD_STEP = 1e-7
+#: a node within this gap of its facet, relative to the facet's longest edge, is touching: pressed, for the
+#: tangent (round-off puts a node that touches on either side of g = 0: 2.2e-16 mm on one machine, 0 on
+#: another, and a touching node without the pressed side's stiffness stalled Newton on the sliding blocks)
+TOUCHING = 1e-12
 
 
 class SurfaceContactTerm:
@@ -97,6 +101,7 @@ class SurfaceContactTerm:
         self.r = np.zeros((n, (1 + d) * d))
         self.K = np.zeros((n, (1 + d) * d, (1 + d) * d))
         self.t, self.p, self.slip = np.zeros((n, d)), np.zeros(n), np.zeros(n)
+        self.pressed = np.zeros(n, dtype=np.bool_)     # pressed or touching: the node's tangent is added
         # history at the last commit: the slaves' traction, normal, pressure; the displacement (Vc numbering)
         self.hist = NodeHistory(n, d, dof_keys(Vc)[self.dofs[:, 0]])
         self.u_c = np.asarray(contact.w_c.x.array[vmap]).copy()
@@ -123,7 +128,8 @@ class SurfaceContactTerm:
         nearest_points(surf, x, self.skip, self.g, self.N, self.facet, self.weights, facing=facing)
         h = self.hist
         _node_terms(x, du[self.dofs], self.area, self.facet, surf.vertices, self.surface.increment, surf.facets,
-                    self._law, h.t_n, h.N_n, h.p_n, self.r, self.K, self.g, self.N, self.t, self.p, self.slip)
+                    self._law, h.t_n, h.N_n, h.p_n, self.r, self.K, self.g, self.N, self.t, self.p, self.slip,
+                    self.pressed)
 
     def residual(self, b):
         """b -= the contact forces at the solver's current state (global entries; off-process ones are
@@ -132,7 +138,7 @@ class SurfaceContactTerm:
             self._build_equations()
             self._equations_built = True
         self.evaluate()
-        on = np.flatnonzero(self.g <= 0.0)        # pressed or touching: a tangent (a body held by contact alone)
+        on = np.flatnonzero(self.pressed)        # pressed or touching: a tangent (a body held by contact alone)
         self._active = on
         if len(on):
             eq = self._equations_of(on)
@@ -335,14 +341,15 @@ def _segment_tangent(P, xi, g, k, K):
 
 
 @_njit
-def _node_terms(x, dx, area, facet, V, DV, F, law, t_n, N_n, p_n, r, K, g, N, t, p, slip):
+def _node_terms(x, dx, area, facet, V, DV, F, law, t_n, N_n, p_n, r, K, g, N, t, p, slip, pressed):
     """Per slave node i (positions x (n, dim) [mm], displacements since the last commit dx (n, dim) [mm]) with a
     facet (facet[i] >= 0) of the surface V (nv, dim) [mm] (its vertices' displacements since the commit DV
     (nv, dim)), F (nf, nfv): r[i] = -f (the residual's entries: the slave's dim components, then each facet
     vertex's) and K[i] = -df/dx, the node-to-segment element's analytic tangent inside a segment without
     friction, else central differences; g[i], N[i] the gap and normal (overwriting the search's with the
     element's own, the same numbers inside a facet), t[i], p[i], slip[i] the law's (law, t_n, N_n, p_n: see
-    :func:`_element_force`). Nodes without a facet get g = inf and zeros."""
+    :func:`_element_force`); pressed[i] whether the node is pressed or touching (g <= TOUCHING x the facet's
+    longest edge) and so has a tangent. Nodes without a facet get g = inf and zeros."""
     n, dim = x.shape
     nfv = F.shape[1]
     m = (1 + nfv) * dim
@@ -359,6 +366,7 @@ def _node_terms(x, dx, area, facet, V, DV, F, law, t_n, N_n, p_n, r, K, g, N, t,
         t[i, :] = 0.0
         p[i] = 0.0
         slip[i] = 0.0
+        pressed[i] = False
         fc = facet[i]
         if fc < 0:
             g[i] = math.inf
@@ -384,8 +392,9 @@ def _node_terms(x, dx, area, facet, V, DV, F, law, t_n, N_n, p_n, r, K, g, N, t,
         for a in range(1 + nfv):
             for j in range(dim):
                 r[i, a * dim + j] = -f[a, j]
-        if gi > 0.0:        # apart: no force, no stiffness
+        if gi > TOUCHING * size:        # apart: no force, no stiffness
             continue
+        pressed[i] = True
         if dim == 2 and frictionless:
             _, _, _, feature, xi = segment_nearest(P[0], P[1:], 0, 1)
             if feature == 0:
