@@ -42,6 +42,12 @@ suites_supported=(bookworm trixie)
 
 say() { printf 'fresh-root: %s\n' "$*"; }
 die() { say "FAILED: $*" >&2; exit 1; }
+host_tools() {     # debootstrap on the host, apt-installed if missing (once, before the suites start)
+    command -v debootstrap >/dev/null && return 0
+    say "installing debootstrap on the host"
+    apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends debootstrap >/dev/null
+}
 
 # ---- the host's apt sources ----------------------------------------------------------------------
 # apt_entries ETC_APT: one line per source entry, in apt's reading order:
@@ -224,6 +230,8 @@ if (($# == 0)); then
     # The suites run at the same time, each in its own root: most of a suite's time is one process
     # (the JIT compiler, pytest), so on two cores this halves the check. Each line is prefixed with
     # its suite.
+    # debootstrap first, once: two suites installing it at the same time collide on apt's lock (one fails)
+    host_tools
     trap 'kill "${pids[@]}" 2>/dev/null; wait; exit 130' INT TERM   # Ctrl-C stops both suites
     for s in "${suites_supported[@]}"; do
         rm -f "$cache/$s/logs/times"
@@ -287,11 +295,7 @@ fi
 [ "$(id -u)" -eq 0 ] || die "needs root (debootstrap, mount, chroot)"
 
 # ---- host tools ----------------------------------------------------------------------------------
-if ! command -v debootstrap >/dev/null; then
-    say "installing debootstrap on the host"
-    apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends debootstrap >/dev/null
-fi
+host_tools
 # the cache was one folder before there were two suites (bookworm's): move it once
 if [ -d "$cache/apt-archives" ] && [ ! -e "$cache/bookworm" ]; then
     mkdir -p "$cache/bookworm"
