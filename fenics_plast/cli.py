@@ -9,6 +9,7 @@ import argparse
 import csv
 import logging
 import os
+import socket
 import sys
 import time
 import traceback
@@ -104,7 +105,7 @@ def cmd_run(args) -> int:
         return EXIT_USAGE
     except Exception as e:  # noqa: BLE001 - not the scene's fault: the run reports it (exit 1, summary.json)
         prepared = e
-    lock, why = _take_out_dir(out_dir, problem.name, comm)
+    lock, why = _take_out_dir(out_dir, problem.name, comm, wait=bool(resume))
     if why:
         _error(why)
         return EXIT_USAGE
@@ -131,17 +132,22 @@ def _out_dir_problem(out_dir, scene, overwrite, resume, comm) -> str | None:
     return comm.bcast(why, root=0) if comm.size > 1 else why
 
 
-def _take_out_dir(out_dir, scene, comm):
-    """Rank 0: create the output folder (and missing parents), take its lock, mark it as a results
-    folder of ``scene``. Returns ``(lock or None, why it failed or None)``; a failure removes the
-    folders it created."""
-    from .output import OutputDirError, RunLock, make_out_dir, mark_results_folder, remove_created
+def _take_out_dir(out_dir, scene, comm, wait=False):
+    """Rank 0: create the output folder (and missing parents), take its lock for every rank's process,
+    mark it as a results folder of ``scene``. ``wait``: a resumed run waits for the processes of the
+    killed run that still hold the folder (:data:`fenics_plast.run_lock.RESUME_WAIT_S`). Returns
+    ``(lock or None, why it failed or None)``; a failure removes the folders it created (collective)."""
+    from .output import OutputDirError, make_out_dir, mark_results_folder, remove_created
+    from .run_lock import RESUME_WAIT_S, RunLock, this_process
+    mine = (socket.gethostname(), *this_process())
+    ranks = comm.gather(mine, root=0) if comm.size > 1 else [mine]
     lock, why = None, None
     if comm.rank == 0:
         created = []
         try:
             created = make_out_dir(out_dir)
-            lock = RunLock.acquire(out_dir)
+            lock = RunLock.acquire(out_dir, [(pid, start) for host, pid, start in ranks if host == mine[0]],
+                                   wait_s=RESUME_WAIT_S if wait else 0.0, say=_say)
             if lock.warning:
                 print(lock.warning, file=sys.stderr, flush=True)
             mark_results_folder(out_dir, scene)

@@ -7,9 +7,9 @@ dolfinx through :attr:`RunOutput.xdmf_path`). ``comm`` may be an mpi4py communic
 The output folder (used by the CLI before a run starts, rank 0): :func:`check_out_dir` refuses a
 folder a run must not write into (a file, not writable, a non-empty folder that is not a results
 folder, another scene's results without ``--overwrite``); :func:`make_out_dir` creates it, the
-marker :data:`MARKER` says it is a results folder and of which scene, and :class:`RunLock` keeps a
-second run out while one runs. :func:`file_name_problem` says why a scene, plot or output name
-cannot become a file name.
+marker :data:`MARKER` says it is a results folder and of which scene, and the lock :data:`LOCK`
+(:mod:`fenics_plast.run_lock`) keeps a second run out while one runs. :func:`file_name_problem`
+says why a scene, plot or output name cannot become a file name.
 """
 from __future__ import annotations
 
@@ -23,8 +23,7 @@ from typing import Any, Mapping
 import numpy as np
 
 __all__ = ["RunOutput", "to_jsonable", "file_name_problem", "NAME_MAX", "OutputDirError", "MARKER", "LOCK",
-           "results_folder_scene", "check_out_dir", "make_out_dir", "remove_created", "mark_results_folder",
-           "RunLock"]
+           "results_folder_scene", "check_out_dir", "make_out_dir", "remove_created", "mark_results_folder"]
 
 
 def to_jsonable(obj: Any) -> Any:
@@ -367,78 +366,3 @@ def mark_results_folder(out_dir: str | os.PathLike, scene: str | None) -> None:
     tmp.write_text(json.dumps({"scene": scene, "written_by": "fenics-plast"}) + "\n", encoding="utf-8")
     os.replace(tmp, path)
 
-
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:         # another user's process
-        return True
-    except (OverflowError, ValueError):
-        return False
-    return True
-
-
-class RunLock:
-    """The lock of a results folder, held by one run (rank 0) from start to end.
-
-    :meth:`acquire` creates :data:`LOCK` atomically (written under a temporary name, then hard-linked
-    to its name, which fails if it exists) with the PID and host. A lock whose PID is alive (or of
-    another host, where that cannot be checked) is an :class:`OutputDirError` naming it; a stale one
-    (its PID is not alive on this host) is taken over, with :attr:`warning` saying so.
-    :meth:`release` removes it (only if it is still this run's)."""
-
-    def __init__(self, path: Path, warning: str | None = None):
-        self.path = path
-        self.warning = warning
-        self.released = False
-
-    @classmethod
-    def acquire(cls, out_dir: str | os.PathLike) -> "RunLock":
-        import socket
-        path = Path(out_dir) / LOCK
-        host = socket.gethostname()
-        me = {"pid": os.getpid(), "host": host}
-        tmp = path.with_name(f"{path.name}.tmp{os.getpid()}")
-        warning = None
-        try:
-            tmp.write_text(json.dumps(me) + "\n", encoding="utf-8")
-            for _ in range(3):
-                try:
-                    os.link(tmp, path)
-                    return cls(path, warning)
-                except FileExistsError:
-                    pass
-                try:
-                    held = json.loads(path.read_text(encoding="utf-8"))
-                    pid, where = int(held["pid"]), str(held["host"])
-                except FileNotFoundError:
-                    continue                        # released meanwhile: try again
-                except (OSError, ValueError, KeyError, TypeError):
-                    pid, where = None, None         # not a lock of ours: unreadable, stale
-                if pid is not None and where != host:
-                    raise OutputDirError(f"{path.parent}: another run holds the folder: PID {pid} on host {where} "
-                                         f"({path}); if that run has ended, delete {path}")
-                if pid is not None and _pid_alive(pid):
-                    raise OutputDirError(f"{path.parent}: another run holds the folder: PID {pid} on this host "
-                                         f"({path}); wait for it to end, or choose another folder")
-                warning = (f"warning: {path} was left by a run that has ended (PID {pid} is not running): "
-                           f"taken over")
-                path.unlink(missing_ok=True)
-            raise OutputDirError(f"{path.parent}: cannot take the lock {path}: other runs keep taking it")
-        except OSError as e:
-            raise OutputDirError(f"{path.parent}: cannot create the lock {path}: {e.strerror or e}") from None
-        finally:
-            tmp.unlink(missing_ok=True)
-
-    def release(self) -> None:
-        if self.released:
-            return
-        self.released = True
-        try:
-            held = json.loads(self.path.read_text(encoding="utf-8"))
-            if int(held.get("pid", -1)) == os.getpid():
-                self.path.unlink()
-        except (OSError, ValueError, TypeError, AttributeError):
-            pass

@@ -15,8 +15,10 @@ import csv
 import json
 import os
 import shutil
+import socket
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 from types import SimpleNamespace
@@ -26,6 +28,7 @@ import pytest
 
 from fenics_plast import checkpoint as ck
 from fenics_plast.checkpoint import CheckpointError, Checkpointer, Keyed
+from fenics_plast.output import LOCK
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -54,6 +57,13 @@ SCENES = {
 TIMING_KEYS = {"wall_time_s", "step_loop_time_s", "time_per_step_s", "setup_time_s", "setup_and_solve_s",
                "solve_time_s", "solver_times_s", "peak_memory_mb"}     # measurements of the process
 MPIRUN = ["/usr/bin/mpirun", "--allow-run-as-root", "-n", "2"]
+
+
+def process_of(pid):
+    """(PID, start time) of a running process, as a lock names it (fenics_plast/run_lock.py)."""
+    with open(f"/proc/{pid}/stat") as f:
+        text = f.read()
+    return pid, text[text.rindex(")") + 2:].split()[19]
 
 
 def scene_args(name):
@@ -147,8 +157,20 @@ def test_kill_and_resume_serial(tmp_path, name, capsys):
     err = capsys.readouterr().err
     assert f"materials.{material}.nu = 0.31 (checkpoint: " in err and "scene settings differ" in err
     assert (res / "history.csv").read_bytes() == hist_before and not (res / "summary.json").exists()
-    # resumed
+    # resumed (the bar: while a rank of the killed run is still exiting, here a process that ends after
+    # 1.5 s holding the lock: the resume waits for it, says so, and goes on)
+    exiting = None
+    if name == "bar":
+        exiting = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(1.5)"])
+        (res / LOCK).write_text(json.dumps({"pid": 1, "host": socket.gethostname(),
+                                            "processes": [[1, "0"], list(process_of(exiting.pid))]}))
+        threading.Thread(target=exiting.wait).start()
     assert checkpoint_driver.run_job(["run", *scene_args(name), "--resume", res], tmp_path / "res.npz") == 0
+    if exiting is not None:
+        out = capsys.readouterr()
+        assert f"waiting up to 30 s for the run that holds the folder (PIDs 1, {exiting.pid} on this host)" in out.out
+        assert (f"{res / LOCK} was left by a run that has ended (PIDs 1, {exiting.pid} on this host: no longer "
+                f"running): taken over") in out.err and not (res / LOCK).exists()
     summary = json.loads((res / "summary.json").read_text())
     assert summary["resumed_from_checkpoint"] == last["counter"]
     # the explicit kernels are numba code compiled with FMA contraction: a process that compiles them and
@@ -186,6 +208,8 @@ def test_kill_and_resume_mpi(tmp_path, capsys):
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     for n in names:
         assert int(np.load(tmp_path / f"{n}_ref.npz")["ranks"]) == 2
+        rcs = [int(np.load(tmp_path / f"{n}_{kind}.npz")["rc"]) for kind in ("ref", "res")]
+        assert rcs == [0, 0], f"{n}: exit statuses {rcs} (uninterrupted, resumed)\n{r.stderr[-3000:]}"
         du, rel = compare(tmp_path / f"{n}_ref", tmp_path / f"{n}_res", tmp_path / f"{n}_ref.npz",
                           tmp_path / f"{n}_res.npz", exact_history=False)
         print(f"{n} mpi: max |du| = {du:.3g} mm, max rel. summary diff {rel:.3g}")

@@ -20,7 +20,8 @@ import pytest
 
 from fenics_plast import cli
 from fenics_plast.checkpoint import Checkpointer
-from fenics_plast.output import LOCK, MARKER, RunLock, OutputDirError, file_name_problem
+from fenics_plast.output import LOCK, MARKER, OutputDirError, file_name_problem
+from fenics_plast.run_lock import RunLock, this_process
 
 ROOT = Path(__file__).resolve().parent.parent
 BAR = ROOT / "tests" / "scenes" / "bar.toml"
@@ -245,7 +246,8 @@ def test_a_stale_lock_is_taken_over(tmp_path):
     (out / LOCK).write_text(json.dumps({"pid": pid, "host": socket.gethostname()}))
     rc, _, err = fp("run", BAR, "--out", out)
     assert rc == 0, err
-    assert f"warning: {out / LOCK} was left by a run that has ended (PID {pid} is not running): taken over" in err
+    assert (f"warning: {out / LOCK} was left by a run that has ended (PID {pid} on this host: no longer running): "
+            f"taken over") in err
     assert not (out / LOCK).exists()
 
 
@@ -261,7 +263,9 @@ def test_lock_is_held_during_the_run_and_released_on_failure(tmp_path, monkeypat
         raise RuntimeError("boom")
     monkeypatch.setattr(runner, "run", failing_run)
     assert cli.main(["run", str(BAR), "--out", str(out)]) == 1
-    assert seen[-1] == {"pid": os.getpid(), "host": socket.gethostname()}
+    held = seen[-1]
+    assert (held["pid"], held["host"]) == (os.getpid(), socket.gethostname())
+    assert held["processes"] == [list(this_process())]
     assert not (out / LOCK).exists() and (out / "summary.json").is_file()
 
     def interrupted(problem, output, mesh_data=None):
@@ -284,5 +288,5 @@ def test_runlock_unit(tmp_path):
         RunLock.acquire(tmp_path)
     (tmp_path / LOCK).write_text("garbage")                  # not a lock of ours: stale
     lock = RunLock.acquire(tmp_path)
-    assert "taken over" in lock.warning
+    assert lock.warning == f"warning: {tmp_path / LOCK} is not a lock written by fenics-plast: taken over"
     lock.release()

@@ -12,7 +12,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
-from ..output import OutputDirError, RunLock
+from ..output import OutputDirError
+from ..run_lock import RunLock
 from .execute import Run, execute, prevalidate
 from .plan import StudyError, Vary, combinations, non_discretisation_keys, run_label, run_name, study_command
 from .references import references
