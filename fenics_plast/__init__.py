@@ -7,10 +7,17 @@ Compiled kernels (numba, ``cache=True``) are cached in ``$XDG_CACHE_HOME/fenics-
 numba notices that a cached kernel is stale only when the kernel's own file changes, not when a kernel
 it calls (and inlines) from another file does, so a cache shared across versions of the package could
 run old code. One folder per version of the kernels' sources cannot. ``NUMBA_CACHE_DIR``, when set, is used as it is.
+
+``XDG_CACHE_HOME`` is used only when it is an absolute path (as the XDG specification says) of a folder
+that exists or can be made, and can be written; otherwise (empty: dolfinx would cache its compiled forms
+in ``./fenics`` of the current folder; unwritable: dolfinx and numba would fail) ``~/.cache`` is, or failing
+that a private folder in the temporary directory, and the environment is set to it before dolfinx reads it
+(:func:`cache_home`).
 """
 import hashlib
 import os
 import sys
+import tempfile
 from pathlib import Path
 
 __version__ = "0.1.0"
@@ -34,12 +41,44 @@ def kernel_source_digest() -> str:
     return h.hexdigest()[:16]
 
 
+def _writable_folder(path: str) -> bool:
+    """Whether ``path`` is an absolute path of a folder that exists or can be made, and can be written."""
+    if not path or not os.path.isabs(path):
+        return False
+    try:
+        os.makedirs(path, exist_ok=True)
+    except OSError:
+        return False
+    return os.path.isdir(path) and os.access(path, os.W_OK | os.X_OK)
+
+
+def cache_home() -> str:
+    """The cache folder of compiled code [absolute path]: ``$XDG_CACHE_HOME`` when usable, else ``~/.cache``,
+    else ``<tmp>/fenics-plast-cache-<uid>``; an unusable ``XDG_CACHE_HOME`` is replaced in the environment
+    (dolfinx's form compiler reads it) and, when it was not empty, a warning goes to stderr (rank 0)."""
+    given = os.environ.get("XDG_CACHE_HOME", "")
+    if _writable_folder(given):
+        return given
+    home = os.path.join(os.path.expanduser("~"), ".cache")
+    private = os.path.join(tempfile.gettempdir(), f"fenics-plast-cache-{os.getuid()}")
+    chosen = home if _writable_folder(home) else private
+    os.makedirs(chosen, mode=0o700, exist_ok=True)
+    if "XDG_CACHE_HOME" in os.environ:
+        os.environ["XDG_CACHE_HOME"] = chosen
+        rank = next((os.environ[v] for v in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK") if v in os.environ), "0")
+        if given and rank == "0":
+            what = "a writable folder" if os.path.isabs(given) else "an absolute path"
+            print(f"warning: XDG_CACHE_HOME={given} is not {what}: compiled code is cached in {chosen}",
+                  file=sys.stderr, flush=True)
+    return chosen
+
+
 def numba_cache_dir() -> str:
     """Where this version of the sources caches its compiled kernels (see the module docstring)."""
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return os.path.join(base, "fenics-plast", "numba", kernel_source_digest())
+    return os.path.join(cache_home(), "fenics-plast", "numba", kernel_source_digest())
 
 
+cache_home()                            # before dolfinx reads XDG_CACHE_HOME
 if "NUMBA_CACHE_DIR" not in os.environ:
     os.environ["NUMBA_CACHE_DIR"] = numba_cache_dir()
     if "numba" in sys.modules:          # imported before us: its config has already read the environment

@@ -23,7 +23,8 @@ else is left in it.
 Fingerprint: the manifest carries the problem's :func:`fingerprint` (the run's
 ``RunOutput.fingerprint``, set by the CLI): sha256 of the mesh (:func:`mesh_fingerprint`, the same on
 any number of ranks) and of every file the mesh is read from (the mesh file, its Includes and
-Merges). A resumed run whose mesh or mesh files differ is refused (:func:`check_fingerprint`).
+Merges, named relative to the scene's folder: :func:`file_label`). A resumed run whose mesh or mesh
+files differ is refused (:func:`check_fingerprint`).
 
 Resuming reads the newest complete checkpoint whose rank files verify (size and sha256; an older one
 otherwise, with a warning on stderr and in summary.json "warnings") and refuses, with
@@ -67,7 +68,7 @@ import numpy as np
 
 __all__ = ["FORMAT", "CheckpointError", "Checkpointer", "Keyed", "KeyedTable", "scene_settings", "check_resume",
            "write_atomic", "dof_keys", "qp_keys", "cell_keys", "owned_keyed", "raise_on_any",
-           "DIRNAME", "mesh_fingerprint", "file_digest", "fingerprint", "check_fingerprint", "own_files",
+           "DIRNAME", "mesh_fingerprint", "file_digest", "file_label", "fingerprint", "check_fingerprint", "own_files",
            "remove_own"]
 
 #: version of the checkpoint layout; bump it when a solver's state_dict changes meaning
@@ -209,18 +210,35 @@ def file_digest(path) -> str:
     return h.hexdigest()
 
 
-def fingerprint(mesh, files) -> dict:
+def file_label(path, scene_dir=None) -> str:
+    """How a fingerprint names a mesh file: its path relative to the scene's folder ``scene_dir`` when it
+    lies there, ``<meshes>/...`` in the package's meshes/, else the absolute path; so a project folder
+    (scene, mesh files and results) moved elsewhere resumes as it was."""
+    from .geo_screen import MESH_DIR
+    path = Path(path).absolute()
+    for root, prefix in ((scene_dir, ""), (MESH_DIR, "<meshes>/")):
+        if root is None:
+            continue
+        try:
+            return prefix + path.relative_to(Path(root).absolute()).as_posix()
+        except ValueError:
+            pass
+    return str(path)
+
+
+def fingerprint(mesh, files, scene_dir=None) -> dict:
     """The problem's fingerprint for checkpoints (collective): ``{"mesh": mesh_fingerprint(mesh),
-    "files": {path: sha256}}`` of the files the mesh is read from (``files``: paths, read on rank 0)."""
+    "files": {label: sha256}}`` of the files the mesh is read from (``files``: paths, read on rank 0;
+    labels: :func:`file_label` against ``scene_dir``)."""
     comm = mesh.comm
     digests = None
     if comm.rank == 0:
         digests = {}
         for f in files:
             try:
-                digests[str(f)] = file_digest(f)
+                digests[file_label(f, scene_dir)] = file_digest(f)
             except OSError as e:
-                digests[str(f)] = f"unreadable: {e.strerror or e}"
+                digests[file_label(f, scene_dir)] = f"unreadable: {e.strerror or e}"
     return {"mesh": mesh_fingerprint(mesh), "files": comm.bcast(digests, root=0)}
 
 

@@ -166,7 +166,7 @@ def _fingerprint(problem, mesh) -> dict:
     from .checkpoint import fingerprint
     from .geo_screen import input_files
     files = input_files(problem.mesh_file, problem.path.parent) if mesh.comm.rank == 0 else []
-    return fingerprint(mesh, files)
+    return fingerprint(mesh, files, problem.path.parent)
 
 
 def _run_in(problem, out_dir, comm, resume, mesh_data, fingerprint) -> int:

@@ -42,6 +42,7 @@ def prepare(problem, comm, mesh_data):
     wall with the body on both sides, a fixed time step above the stable limit, ...) refuses the scene
     with SceneError (exit 2) and no file. Returns what :func:`run` takes as ``mesh_data``; progress lines
     of the set-up go to stdout (rank 0). Collective."""
+    import sys
     import time
     t0 = time.perf_counter()
 
@@ -50,9 +51,12 @@ def prepare(problem, comm, mesh_data):
             print(msg, flush=True)
     try:
         if problem.explicit:
-            from fenics_plast.runner_explicit import build_explicit, checked_steps
+            from fenics_plast.runner_explicit import build_explicit, checked_steps, many_steps_warning
             built = build_explicit(problem, comm, mesh_data, log=log)
             built.history_rows = checked_steps(problem, built.solver)
+            warning = many_steps_warning(problem, built.solver)
+            if warning and comm.rank == 0:
+                print(warning, file=sys.stderr, flush=True)
         else:
             from fenics_plast.runner_static import build_static
             built = build_static(problem, comm, mesh_data, log=log)

@@ -98,11 +98,15 @@ def add_walls(problem, solver, conditions):
             raise SceneError(f"{problem.path}: {e}") from None
 
 
-def checked_steps(problem, solver) -> int:
-    """The number of history rows of the run (collective): ``output.history_points``, capped at one
-    per time step (the estimate: analysis.time_steps, or end_time over dt_safety x the initial stable
-    step; rows closer than a step would force shorter steps); a fixed step above the stable limit
-    (analysis.time_steps) refuses the scene (SceneError)."""
+#: a run whose settings imply more time steps than this is announced with a warning (at ~1e5 steps a
+#: minute on a small mesh, 1e7 steps are hours)
+MANY_STEPS = 10 ** 7
+
+
+def estimated_steps(problem, solver) -> float:
+    """The number of time steps the run will take (collective): analysis.time_steps, or end_time over
+    dt_safety x the initial stable step (cells and contact springs; or mass_scaling_dt where larger). A
+    fixed step above the stable limit refuses the scene (SceneError)."""
     ana = problem.analysis
     dt_stable = solver.stable_dt()
     if ana.time_steps is not None:
@@ -113,10 +117,29 @@ def checked_steps(problem, solver) -> int:
                 f"{dt:.4g} s exceeds the stable limit {dt_stable:.4g} s "
                 f"({solver.cell_steps.limit_text(dt_stable)}); use at "
                 f"least {math.ceil(ana.end_time / dt_stable)} steps or drop analysis.time_steps")
-        steps = ana.time_steps
-    else:
-        steps = math.ceil(ana.end_time / (ana.dt_safety * max(dt_stable, ana.mass_scaling_dt)) - 1e-9)
-    return int(min(problem.output.history_points, max(steps, 1) + 1))
+        return float(ana.time_steps)
+    return math.ceil(ana.end_time / (ana.dt_safety * max(dt_stable, ana.mass_scaling_dt)) - 1e-9)
+
+
+def checked_steps(problem, solver) -> int:
+    """The number of history rows of the run (collective): ``output.history_points``, capped at one
+    per time step (:func:`estimated_steps`: rows closer than a step would force shorter steps)."""
+    return int(min(problem.output.history_points, max(estimated_steps(problem, solver), 1) + 1))
+
+
+def many_steps_warning(problem, solver) -> str | None:
+    """A warning when the settings imply more than :data:`MANY_STEPS` time steps (collective), naming
+    what sets the step (dt_safety, the stable step of the cells, a contact penalty)."""
+    steps = estimated_steps(problem, solver)
+    if steps <= MANY_STEPS:
+        return None
+    ana = problem.analysis
+    dt_cells, dt = solver.cell_steps.stable_dt(), solver.stable_dt()
+    why = [f"analysis.dt_safety = {ana.dt_safety:g}"] if ana.time_steps is None else []
+    why.append(f"the stable step {dt:.3g} s" + (f" (the contact penalties' springs; the cells' alone: {dt_cells:.3g} s)"
+                                                if dt < 0.5 * dt_cells else ""))
+    return (f"warning: {problem.path}: about {steps:.3g} time steps to analysis.end_time ({', '.join(why)}): "
+            f"such a run takes hours or days; check dt_safety, the contact penalties and the smallest cell")
 
 
 def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
@@ -323,5 +346,5 @@ def eroded_field(solver, out=None):
     return out
 
 
-__all__ = ["run_explicit", "SceneTerms", "SCENE_TERMS", "checked_steps", "velocity_constraints", "add_walls",
-           "nonfinite_guard", "fields_guard"]
+__all__ = ["run_explicit", "SceneTerms", "SCENE_TERMS", "checked_steps", "estimated_steps", "many_steps_warning",
+           "MANY_STEPS", "velocity_constraints", "add_walls", "nonfinite_guard", "fields_guard"]

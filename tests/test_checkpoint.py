@@ -426,3 +426,28 @@ def test_mesh_fingerprint_does_not_depend_on_the_partition(tmp_path):
     a, b = serial_and_two_ranks(REPO / "tests" / "mpi_mesh_fingerprint.py", [], tmp_path)
     assert int(a["ranks"]) == 1 and int(b["ranks"]) == 2 and int(b["same_on_all_ranks"]) == 1
     assert list(a["digests"]) == list(b["digests"]) and len(set(a["digests"])) == 3
+
+
+def test_a_moved_project_folder_resumes(tmp_path):
+    """A project folder (scene, its own .geo, the killed run's results) moved elsewhere resumes: the
+    fingerprint names the mesh files relative to the scene's folder (it held absolute paths, and the
+    resume was refused as "the mesh was read from ... then, not now")."""
+    first = tmp_path / "project"
+    first.mkdir()
+    shutil.copy(REPO / "meshes" / "round_bar.geo", first / "round_bar.geo")
+    text = (REPO / "demos" / "bar_tension.toml").read_text().replace('"../meshes/round_bar.geo"', '"round_bar.geo"')
+    (first / "bar.toml").write_text(text)
+    _, sets, point, _ = SCENES["bar"]
+    cmd = [sys.executable, "-m", "fenics_plast.cli", "run", str(first / "bar.toml"), *sets, *COMMON,
+           "--out", str(first / "out")]
+    r = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO, timeout=300, env=kill_env(point))
+    assert r.returncode == 137, r.stderr[-2000:]
+    manifest = json.loads(sorted((first / "out" / "checkpoint").glob("ckpt_*.json"))[-1].read_text())
+    assert list(manifest["fingerprint"]["files"]) == ["round_bar.geo"]
+    moved = tmp_path / "elsewhere" / "project"
+    moved.parent.mkdir()
+    first.rename(moved)
+    r = subprocess.run([sys.executable, "-m", "fenics_plast.cli", "run", str(moved / "bar.toml"), *sets, *COMMON,
+                        "--resume", str(moved / "out")], capture_output=True, text=True, cwd=REPO, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert json.loads((moved / "out" / "summary.json").read_text())["resumed_from_checkpoint"] == manifest["counter"]

@@ -14,6 +14,8 @@ H = 0 (perfect plasticity)             test_perfectly_plastic_compression_beyond
 eqps beyond 3                          test_material_point_beyond_eqps_3 (both models, tension,
                                        compression, shear), the compression test above (mesh)
 penalty 1e-2 ... 1e4 x default         test_punch_penalty_extremes (+ slow: every decade)
+dt_safety 1e-9, penalty 1e12 x        test_a_step_count_beyond_1e7_is_announced (a warning before the
+                                       run, naming what sets the step)
 time step above the stable limit       test_explicit.py::test_fixed_step_above_stable_limit_is_refused
                                        (1.5 x, the message names the limit) and
                                        ::test_fixed_step_stopped_when_the_mesh_crushes_below_it
@@ -371,3 +373,25 @@ def test_nonfinite_output_check(tmp_path):
     md = tmp_path / "study.md"
     md.write_text("| run | error |\n|---|---|\n| a | 0.01 |\n| b | nan |\n")
     assert nonfinite_problems(md) == ["line 4: 'nan'"]
+
+
+@pytest.mark.parametrize("scene, sets, cause", [
+    ("taylor_bar", ["analysis.dt_safety=1e-9"], "analysis.dt_safety = 1e-09"),
+    ("taylor_bar_wall", ["contact.*.penalty=1e16"], "the contact penalties' springs"),
+    ("taylor_bar", [], None), ("taylor_bar_wall", [], None)])
+def test_a_step_count_beyond_1e7_is_announced(capsys, scene, sets, cause):
+    """Settings that imply more than 1e7 explicit steps are announced before the run (it went on for
+    days without a word), with the estimated count and what sets the step; the shipped scene is not."""
+    from fenics_plast import runner
+    from fenics_plast.problem import load_problem
+    from fenics_plast.runner_explicit import MANY_STEPS, estimated_steps
+    problem = load_problem(ROOT / "demos" / f"{scene}.toml", sets)
+    built = runner.prepare(problem, MPI.COMM_WORLD, runner.read_mesh(problem, MPI.COMM_WORLD))
+    err = capsys.readouterr().err
+    steps = estimated_steps(problem, built.solver)
+    if cause is None:
+        assert steps < 1e4 and "warning" not in err
+        return
+    assert steps > MANY_STEPS
+    if MPI.COMM_WORLD.rank == 0:
+        assert f"about {steps:.3g} time steps to analysis.end_time (" in err and cause in err
