@@ -22,15 +22,18 @@ later Gmsh adds them), ``Delete File``
                                                    would stop with status 0 and no message)
 ``Include "file";``                                screened recursively; the file must lie in an
                                                    allowed folder (below)
-``Merge "file";``, ``MergeWithBoundingBox``        data files only: ``.msh`` (whose first line is
-                                                   a mesh header: Gmsh reads a ``.msh`` that is
-                                                   not one as a script), ``.step .stp .iges .igs
-                                                   .brep .brp .stl`` and their upper-case forms
-                                                   (Gmsh reads any other suffix, ``.Stl`` too, as
-                                                   a script, runs ``gunzip`` on ``.gz`` and
-                                                   registers ``.py``/``.exe`` as a solver);
-                                                   a ``.geo`` is screened like an Include; in an
-                                                   allowed folder
+``Merge "file";``, ``MergeWithBoundingBox``        by the suffix, as Gmsh takes it: exactly ``.step
+                                                   .STEP .stp .STP .iges .IGES .igs .IGS .brep
+                                                   .brp .BRP .stl .STL`` (Gmsh compares case) are
+                                                   data; ``.msh`` in any case must start with a
+                                                   mesh header (Gmsh reads any other suffix,
+                                                   ``.msh`` and ``.Stl`` too, by its first line: a
+                                                   mesh header, or else a script); ``.geo`` in any
+                                                   case is screened like an Include; any other
+                                                   suffix is refused (Gmsh would read it as a
+                                                   script, run ``gunzip`` on ``.gz``, register
+                                                   ``.py``/``.exe`` as a solver); in an allowed
+                                                   folder
 ``ShapeFromFile("f")``, ``ListFromFile("f")``      reads a file: in an allowed folder
 ``StringToName[...]`` / ``S2N[...]``               a name built from a string could spell any
                                                    command: allowed with a literal string only,
@@ -39,9 +42,17 @@ later Gmsh adds them), ``Delete File``
 
 Every file name in Include, Merge, ShapeFromFile and ListFromFile must be a string literal (``Include
 StrCat(dir, "x.geo")`` cannot be screened and is refused). Gmsh also merges ``<file>.opt`` after
-every file it opens with Merge (the mesh file itself included) and reads it as a script: those files
-are screened too when they exist. ``Sleep``, ``Abort``, ``GetEnv``, options and everything else that
-builds or meshes geometry are allowed.
+every file it opens with Merge (the mesh file itself included, and a ``.opt`` itself) and reads it as a
+script: those files are screened too when they exist. ``Sleep``, ``Abort``, ``GetEnv``, options and
+everything else that builds or meshes geometry are allowed.
+
+Symbolic links: Gmsh acts on the name it is given (its suffix, the ``.opt`` beside it, the folder
+relative Includes are read from), the screen on the file. So the mesh file is resolved first
+(:func:`mesh_file_kind`: the callers hand Gmsh the resolved name and take its kind from it, ``.geo``
+or ``.msh`` in any case), and the ``.opt`` beside both names is screened; a file named in a script
+(Include, Merge, ShapeFromFile, ListFromFile) or a ``.opt`` that is itself a symbolic link is refused
+(a link to a folder higher in the path is followed; the file must still lie in an allowed folder), and
+so is a loop of links.
 
 Allowed folders: the scene file's folder and everything below it, and the package's ``meshes/``
 folder (its shipped geometries). The mesh file itself may lie elsewhere (``mesh.file`` names it).
@@ -62,8 +73,8 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-__all__ = ["MESH_DIR", "GeoScreenError", "Finding", "Scan", "scan", "screen", "input_files", "DATA_SUFFIXES",
-           "MESH_HEADERS"]
+__all__ = ["MESH_DIR", "GeoScreenError", "Finding", "Scan", "scan", "screen", "input_files", "mesh_file_kind",
+           "DATA_SUFFIXES", "MESH_HEADERS"]
 
 #: Merge targets Gmsh reads as data (Common/OpenFile.cpp, MergeFile): exact suffixes, Gmsh compares case
 DATA_SUFFIXES = (".msh", ".step", ".STEP", ".stp", ".STP", ".iges", ".IGES", ".igs", ".IGS", ".brep", ".brp",
@@ -86,6 +97,7 @@ _TO_NAME = ("StringToName", "S2N")
 _VARIABLE_USE = {"=", "+=", "-=", "*=", "/=", "[", "~", ";", ",", ")", "}", "]", "+", "-", "*", "/", "^", "%",
                  "<", ">", "<=", ">=", "==", "!=", "&&", "||", "?", ":", ".", "::", "++", "--", "|", "&", "!"}
 _MAX_FILES = 1000       # Includes of Includes...: a bound, so that a cycle or a flood ends
+_LINK = "names a symbolic link: name the file itself"
 #: the package's shipped geometries (meshes/; FENICS_PLAST_MESHES overrides): trusted for Include and Merge
 MESH_DIR = Path(os.environ.get("FENICS_PLAST_MESHES", Path(__file__).resolve().parent.parent / "meshes"))
 
@@ -173,6 +185,33 @@ def _inside(path: Path, roots) -> bool:
     return any(path == r or r in path.parents for r in roots)
 
 
+def _resolve(path: Path) -> Path | None:
+    """``path`` with every symbolic link resolved, or None for a loop of links."""
+    try:
+        return path.resolve()
+    except (OSError, RuntimeError):     # (Python < 3.13 raises RuntimeError for a loop)
+        return None
+
+
+def _kind(path: Path) -> str:
+    """How Gmsh's MergeFile takes ``path`` by its name: "data" (an exact data suffix), "mesh" (``.msh`` in
+    any case: a mesh if its first line is a mesh header, else a script), "geo" (``.geo`` in any case: a
+    script) or "other" (another suffix: a script, or a file handed to another program)."""
+    suffix = path.suffix
+    if suffix in DATA_SUFFIXES and suffix != ".msh":
+        return "data"
+    return {".msh": "mesh", ".geo": "geo"}.get(suffix.lower(), "other")
+
+
+def mesh_file_kind(path) -> tuple[Path, str]:
+    """The file Gmsh is to open for the mesh file ``path`` (every symbolic link resolved: hand Gmsh this
+    name, so that it decides the format, finds ``.opt`` and resolves Includes as the screen did) and its
+    kind from the resolved name, suffix compared without case: ".geo", ".msh" or "" (anything else)."""
+    resolved = _resolve(Path(path)) or Path(path)
+    suffix = resolved.suffix.lower()
+    return resolved, suffix if suffix in (".geo", ".msh") else ""
+
+
 def _first_line(path: Path) -> str:
     try:
         with open(path, "rb") as f:
@@ -199,21 +238,28 @@ class _Scanner:
         return True
 
     def opt_chain(self, path: Path) -> None:
-        """Gmsh merges ``<file>.opt`` after a merged file, as a script (and its .opt, ...)."""
+        """Gmsh merges ``<file>.opt`` after every file it merges (``path`` as Gmsh names it), as a script,
+        and that file's ``.opt`` in turn. A ``.opt`` that is a symbolic link is refused (Gmsh would resolve
+        its Includes beside the link)."""
         opt = Path(str(path) + ".opt")
-        if opt.is_file():
-            self.script(opt.resolve())
+        if opt.is_symlink():
+            self.refuse(opt, 1, "option file", _LINK)
+        elif opt.is_file():
+            self.merged(opt.resolve())
 
-    def merged(self, path: Path, line_of=None) -> None:
-        """A file Gmsh opens with MergeFile (the mesh file itself, a Merge target)."""
-        if path.suffix == ".geo":
-            self.script(path)
-        elif path.suffix == ".msh":
+    def merged(self, path: Path) -> None:
+        """A file Gmsh opens with MergeFile (the mesh file itself, a Merge target, a ``.opt``), ``path``
+        resolved. Its kind as Gmsh decides it: an exact data suffix is data; any other suffix makes Gmsh
+        look at the first line (a mesh header: a mesh; anything else: a script)."""
+        kind = _kind(path)
+        if kind == "data":
+            self.add(path)
+        elif kind == "mesh":
             if self.add(path) and not _first_line(path).startswith(MESH_HEADERS):
                 self.refuse(path, 1, "mesh file", f"is not a Gmsh mesh: its first line is not $MeshFormat, and "
                                                   f"Gmsh reads such a file as a script")
-        else:
-            self.add(path)
+        else:                       # .geo in any case, .opt, any other suffix: screened as a script
+            self.script(path)
         self.opt_chain(path)
 
     def file_arg(self, toks, k, file, command):
@@ -225,8 +271,16 @@ class _Scanner:
             self.refuse(file, line, command, "names its file with an expression: write the file name as a "
                                              "string (\"name.geo\") so that it can be screened")
             return None
-        target = Path(t.text)
-        target = (target if target.is_absolute() else file.parent / target).resolve()
+        named = Path(t.text)
+        named = named if named.is_absolute() else file.parent / named
+        if named.is_symlink():      # Gmsh would act on the link's name (suffix, .opt, relative paths)
+            self.refuse(file, t.line, f'{command} "{t.text}"', _LINK)
+            return None
+        target = _resolve(named)
+        if target is None:
+            self.refuse(file, t.line, f'{command} "{t.text}"', "names a path that cannot be resolved (a loop of "
+                                                               "symbolic links)")
+            return None
         if not _inside(target, self.roots):
             self.refuse(file, t.line, f'{command} "{t.text}"',
                         f"reads a file outside the scene's folder ({', '.join(map(str, self.roots))})")
@@ -290,7 +344,7 @@ class _Scanner:
                     continue
                 if name == "Include":
                     self.script(target)
-                elif target.suffix == ".geo" or target.suffix in DATA_SUFFIXES:
+                elif _kind(target) != "other":
                     self.merged(target)
                 else:
                     self.refuse(path, toks[after].line, f'{name} "{toks[after].text}"',
@@ -309,9 +363,15 @@ def _roots(mesh_file: Path, scene_dir) -> list[Path]:
 def scan(mesh_file, scene_dir=None) -> Scan:
     """Screen the mesh file ``mesh_file`` (.geo or .msh) and everything it makes Gmsh read. Allowed
     folders: ``scene_dir`` (default: the mesh file's folder) and below, and the package's meshes/."""
-    path = Path(mesh_file).resolve()
-    s = _Scanner(_roots(path, scene_dir))
+    given = Path(mesh_file).absolute()
+    path = _resolve(given)
+    s = _Scanner(_roots(path or given, scene_dir))
+    if path is None:
+        s.refuse(given, 1, "mesh file", "cannot be resolved (a loop of symbolic links)")
+        return s.result
     s.merged(path)
+    if path != given:           # a link: Gmsh is handed ``path``; the .opt beside the link's name is screened too
+        s.opt_chain(given)
     return s.result
 
 
