@@ -269,9 +269,17 @@ def contact_pairs(problem, mesh, facet_tags, groups, material, tools) -> dict[st
     """{name: :class:`ContactPair`} of the scene's [contact] pairs, in its order (``tools``: name -> tool,
     :func:`tools_of`; collective)."""
     from fenics_plast.tools import contact_length_scale, default_penalty
+    from fenics_plast.meshed_tools import MeshedTool, check_tool_size
     out = {}
+    axisymmetric = problem.mesh.geometry == "axisymmetric"
     for name, spec in problem.contact.items():
         tag = groups[spec.group][1]
+        for key in ("group", "master"):
+            if spec.get(key) is not None:
+                _check_contact_area(problem, mesh, facet_tags, groups, f"contact.{name}.{key}", spec.get(key),
+                                    axisymmetric)
+        if spec.get("tool") is not None and isinstance(tools.get(spec.tool), MeshedTool):
+            check_tool_size(spec.tool, tools[spec.tool], smallest_cell(mesh), where=str(problem.path))
         depth = contact_length_scale(mesh, facet_tags, tag)
         default = default_penalty(contact_modulus(material, mesh, facet_tags, tag), depth)
         eps = spec.penalty if spec.penalty is not None else default
@@ -286,6 +294,52 @@ def contact_pairs(problem, mesh, facet_tags, groups, material, tools) -> dict[st
         out[name] = ContactPair(name, tools[spec.tool], tag, eps, spec.friction, spec.law, spec.tangential_penalty,
                                 depth, default)
     return out
+
+
+def facet_measures(mesh, facet_tags, tag, axisymmetric=False):
+    """(measure, plain measure) of the owned facets tagged ``tag``, summed over the ranks [mm or mm^2]: the
+    length (2-D) or area (3-D) of the reference facets, the first weighted by 2 pi r in axisymmetry
+    (the revolved surface; 0 for a group on the axis r = 0) (collective)."""
+    fdim = mesh.topology.dim - 1
+    facets = facet_tags.find(tag)
+    facets = facets[facets < mesh.topology.index_map(fdim).size_local]
+    x = mesh.geometry.x[dc.entity_nodes(mesh, fdim, facets)] if len(facets) else np.zeros((0, 2, 3))
+    if fdim == 1:
+        size = np.linalg.norm(x[:, 1] - x[:, 0], axis=1)
+        weighted = size * 2 * np.pi * 0.5 * (x[:, 0, 0] + x[:, 1, 0]) if axisymmetric else size
+    else:       # triangles; quadrilaterals (vertices in tensor order: the diagonals 0-3 and 1-2)
+        a, b = ((x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]) if x.shape[1] == 3 else (x[:, 3] - x[:, 0], x[:, 2] - x[:, 1]))
+        size = weighted = 0.5 * np.linalg.norm(np.cross(a, b), axis=1)
+    total = np.array([float(np.sum(weighted)), float(np.sum(size))])
+    return tuple(mesh.comm.allreduce(total, op=MPI.SUM)) if mesh.comm.size > 1 else tuple(total)
+
+
+def _check_contact_area(problem, mesh, facet_tags, groups, key, group, axisymmetric):
+    """SceneError naming ``key`` when the contact surface ``group`` has zero measure (in axisymmetry: lies on
+    the axis, where its revolved surface is a line), so that no pressure can act on it (collective)."""
+    from fenics_plast.errors import SceneError
+    measure, plain = facet_measures(mesh, facet_tags, groups[group][1], axisymmetric)
+    X = mesh.geometry.x
+    size = mesh.comm.allreduce(float(np.abs(X).max()) if len(X) else 0.0, op=MPI.MAX)
+    if measure > 1e-12 * plain * max(size, 1e-300) and plain > 0:
+        return
+    where = (" (it lies on the axis r = 0: with mesh.geometry = 'axisymmetric' its revolved surface is a line)"
+             if axisymmetric and plain > 0 else "")
+    raise SceneError(f"{problem.path}: {key} = {group!r}: the contact surface has zero area{where}: contact needs "
+                     f"a surface that pressure can act on")
+
+
+def smallest_cell(mesh) -> float:
+    """The shortest distance between two nodes of one cell of the body [mm], over all ranks (collective)."""
+    x = mesh.geometry.x[:, :mesh.geometry.dim]
+    cells = dc.geometry_dofs(mesh)[:mesh.topology.index_map(mesh.topology.dim).size_local]
+    k = cells.shape[1] if cells.ndim == 2 else 0
+    h = np.inf
+    for i in range(k):
+        for j in range(i + 1, k):
+            if len(cells):
+                h = min(h, float(np.linalg.norm(x[cells[:, i]] - x[cells[:, j]], axis=1).min()))
+    return mesh.comm.allreduce(h, op=MPI.MIN)
 
 
 def _check_starting_side(spec, tool, mesh, facet_tags, tag, depth):

@@ -267,16 +267,20 @@ def check_fingerprint(out_dir, manifest: Mapping, now: Mapping | None) -> None:
 
 
 def own_files(ckdir: Path) -> list[Path]:
-    """The files in ``ckdir`` that a checkpointer wrote (manifests, rank files, temporary files)."""
-    if not ckdir.is_dir():
+    """The files in ``ckdir`` that a checkpointer wrote (manifests, rank files, temporary files): regular
+    files only, and none when ``ckdir`` is a link (out_files: nothing is deleted through a link)."""
+    ckdir = Path(ckdir)
+    if ckdir.is_symlink() or not ckdir.is_dir():
         return []
-    return [p for p in ckdir.iterdir() if _OWN.match(p.name) and p.is_file()]
+    return [p for p in ckdir.iterdir() if _OWN.match(p.name) and not p.is_symlink() and p.is_file()]
 
 
 def remove_own(ckdir: Path) -> None:
     """Delete the checkpointer's files in ``ckdir``, then the folder if nothing else is in it."""
+    from .out_files import remove_file
+    ckdir = Path(ckdir)
     for p in own_files(ckdir):
-        p.unlink(missing_ok=True)
+        remove_file(p, root=ckdir.parent)
     try:
         ckdir.rmdir()
     except OSError:
@@ -340,15 +344,11 @@ def _fsync_dir(path: Path) -> None:
 def write_atomic(path: str | os.PathLike, data: bytes) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same directory: write, fsync,
     ``os.replace`` (atomic on POSIX), fsync of the directory. A crash leaves the old file or the new
-    one under ``path``, never a partial one."""
+    one under ``path``, never a partial one. Neither the file nor its folder (checkpoint/) may be a
+    link (:class:`fenics_plast.out_files.LinkRefused`)."""
+    from . import out_files
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    with open(tmp, "wb") as f:
-        f.write(data)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
-    _fsync_dir(path.parent)
+    out_files.write_atomic(path, data, root=path.parent.parent)
 
 
 def scene_settings(scene) -> dict:
@@ -487,7 +487,9 @@ class Checkpointer:
             if not self.resuming:
                 remove_own(self.dir)            # a fresh run: stale checkpoints of an earlier run go
             if self.every > 0 or self.resuming:
-                self.dir.mkdir(parents=True, exist_ok=True)
+                from .out_files import make_dir
+                self.dir.parent.mkdir(parents=True, exist_ok=True)
+                make_dir(self.dir, root=self.dir.parent)        # a link there is refused
         self._barrier()
         if output is not None:
             output.checkpointer = self
@@ -555,12 +557,13 @@ class Checkpointer:
         leftovers (temporary files, rank files without a manifest) older than the newest."""
         found = _manifests(self.dir)
         keep = {c for c, _ in found[:KEEP]}
+        from .out_files import remove_file
         for c, p in found[KEEP:]:
-            p.unlink(missing_ok=True)
+            remove_file(p, root=self.dir.parent)
         for p in self.dir.iterdir():
             m = re.match(r"^\.?ckpt_(\d+)\.", p.name)
             if m and int(m.group(1)) not in keep and int(m.group(1)) < newest:
-                p.unlink(missing_ok=True)
+                remove_file(p, root=self.dir.parent)
 
     # -- loading -----------------------------------------------------------------------------
     def load(self) -> dict[str, Any]:

@@ -78,7 +78,8 @@ def cmd_run(args) -> int:
             _error(str(e))
             return EXIT_USAGE
         _say(f"fenics-plast: resuming {out_dir} from checkpoint {manifest['counter']}")
-    why = _out_dir_problem(out_dir, problem.name, getattr(args, "overwrite", False), bool(resume), comm)
+    why = _out_dir_problem(out_dir, problem.name, getattr(args, "overwrite", False), bool(resume), comm,
+                           problem)
     if why:
         _error(why)
         return EXIT_USAGE
@@ -109,9 +110,11 @@ def cmd_run(args) -> int:
     if why:
         _error(why)
         return EXIT_USAGE
-    if not resume and comm.rank == 0:   # a fresh run: an earlier run's checkpoint files go (only those)
+    if not resume and comm.rank == 0:   # a fresh run: an earlier run's files and checkpoints go (only those)
+        from .output import remove_listed
         if (out_dir / "summary.json").is_file() or (out_dir / "history.csv").is_file():
             _say(f"fenics-plast: {out_dir} holds the results of an earlier run: they are replaced")
+        remove_listed(out_dir)
         remove_own(out_dir / DIRNAME)
     try:
         return _run_in(problem, out_dir, comm, resume, prepared, fingerprint)
@@ -120,13 +123,14 @@ def cmd_run(args) -> int:
             lock.release()          # also after a failure or Ctrl-C
 
 
-def _out_dir_problem(out_dir, scene, overwrite, resume, comm) -> str | None:
+def _out_dir_problem(out_dir, scene, overwrite, resume, comm, problem=None) -> str | None:
     """Why the run may not write into ``out_dir`` (rank 0 checks; every rank gets the answer)."""
-    from .output import OutputDirError, check_out_dir
+    from .output import OutputDirError, check_out_dir, run_file_names
     why = None
     if comm.rank == 0:
         try:
-            check_out_dir(out_dir, scene, overwrite=overwrite, resume=resume)
+            check_out_dir(out_dir, scene, overwrite=overwrite, resume=resume,
+                          names=run_file_names(problem) if problem is not None else ())
         except OutputDirError as e:
             why = str(e)
     return comm.bcast(why, root=0) if comm.size > 1 else why
@@ -174,7 +178,7 @@ def _run_in(problem, out_dir, comm, resume, mesh_data, fingerprint) -> int:
     from .checkpoint import CheckpointError
     from .errors import RunError
     from .expressions import ExpressionError
-    from .output import RunOutput
+    from .output import LinkRefused, RunOutput
     from .runner import run
     output = RunOutput(out_dir, comm, resume=bool(resume))
     output.fingerprint = fingerprint
@@ -221,6 +225,10 @@ def _run_in(problem, out_dir, comm, resume, mesh_data, fingerprint) -> int:
         msg = f"{problem.path}: {e}: the run stopped there"
         summary.update(converged=False, error=msg)
         _error(msg)
+    except LinkRefused as e:           # a link where the run writes, not seen before the run (refused there)
+        status = EXIT_USAGE
+        summary.update(converged=False, error=str(e))
+        _error(str(e))
     except KeyboardInterrupt:
         status = 130
         summary.update(converged=False, error="interrupted")
@@ -238,7 +246,11 @@ def _run_in(problem, out_dir, comm, resume, mesh_data, fingerprint) -> int:
         if ckpt.warnings:                   # e.g. resumed from an older checkpoint: the newest was corrupt
             summary["warnings"] = list(summary.get("warnings") or []) + ckpt.warnings
     summary["scene_settings"] = problem.to_dict()
-    path = output.finish(summary)
+    try:
+        path = output.finish(summary)
+    except LinkRefused as e:
+        _error(str(e))
+        return EXIT_USAGE
     if ckpt is not None and status == EXIT_OK:
         ckpt.clear()            # after summary.json: a kill in between leaves a resumable run
     _say(f"fenics-plast: {'done' if status == EXIT_OK else 'FAILED'} in {summary['wall_time_s']:.1f} s; "
@@ -268,6 +280,11 @@ def read_deformation_table(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(f"{path}: not a number: {e}") from None
     if data.ndim != 2 or data.shape[0] < 1 or data.shape[1] != len(header):
         raise ValueError(f"{path}: every row needs {len(header)} numbers")
+    bad = np.nonzero(~np.all(np.isfinite(data), axis=1))[0]
+    if bad.size:
+        col = header[int(np.nonzero(~np.isfinite(data[bad[0]]))[0][0])]
+        raise ValueError(f"{path}: data row {int(bad[0]) + 1}: {col} = {data[bad[0]][header.index(col)]!r} is not a "
+                         f"finite number")
     idx = {h: i for i, h in enumerate(header)}
     t = data[:, idx["t"]]
     F = np.stack([data[:, idx[c]] for c in F_COLUMNS], axis=1).reshape(-1, 3, 3)
@@ -328,6 +345,11 @@ def cmd_point(args) -> int:
     if args.rate is not None and not (np.isfinite(args.rate) and args.rate > 0):
         _error(f"--rate must be a positive number [1/s], got {args.rate}")
         return EXIT_USAGE
+    out = Path(args.out) if args.out else Path("results") / problem.name / f"point_{args.path}.csv"
+    why = _point_out_problem(out)
+    if why:
+        _error(why)
+        return EXIT_USAGE
     t = None
     if args.path == "table":
         try:
@@ -357,19 +379,48 @@ def cmd_point(args) -> int:
                f"{ {k: len(c) for k, c in cols.items()} }")
         return EXIT_RUN_FAILED
     n = lengths.pop() if lengths else 0
+    for k, c in cols.items():
+        c = np.asarray(c)
+        if c.dtype.kind in "fc" and not np.all(np.isfinite(c)):
+            row = int(np.nonzero(~np.isfinite(c))[0][0])
+            _error(f"fenics-plast point: {k} is not finite in row {row + 1} of the path (the deformation is out of "
+                   f"the material's range, e.g. a huge F in --table): nothing written")
+            return EXIT_USAGE
     if t is not None and "t" not in cols:
         # the driver may prepend the undeformed state (F = I) as row 0: its t is left empty
         tcol = np.array([""] * (n - len(t)) + [repr(float(x)) for x in t], dtype=object)
         cols = {"t": tcol, **cols}
-    out = Path(args.out) if args.out else Path("results") / problem.name / f"point_{args.path}.csv"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with open(out, "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(list(cols))
-        for i in range(n):
-            w.writerow([_csv_cell(c[i]) for c in cols.values()])
+    from .out_files import LinkRefused, open_write
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with open_write(out, newline="", encoding="utf-8") as f:
+            w = csv.writer(f)
+            w.writerow(list(cols))
+            for i in range(n):
+                w.writerow([_csv_cell(c[i]) for c in cols.values()])
+    except LinkRefused as e:
+        _error(str(e))
+        return EXIT_USAGE
+    except OSError as e:
+        _error(f"--out {out}: cannot write the table: {e.strerror or e}")
+        return EXIT_USAGE
     _say(f"fenics-plast point: {n} rows ({', '.join(cols)}) -> {out}")
     return EXIT_OK
+
+
+def _point_out_problem(out: Path) -> str | None:
+    """Why ``point`` may not write its table to ``out`` (a folder, a link, under a file)."""
+    if os.path.islink(out):
+        return (f"--out {out}: is a symbolic link: fenics-plast does not write through links; remove it or "
+                f"choose another file name")
+    if out.is_dir():
+        return f"--out {out}: is a folder: give the name of the CSV file to write (e.g. {out / 'point.csv'})"
+    parent = out.absolute().parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        return f"--out {out}: cannot create the file: {parent} is a file, not a folder"
+    return None
 
 
 # ----------------------------------------------------------------------------------------------
@@ -377,10 +428,11 @@ def cmd_point(args) -> int:
 
 
 def cmd_plot(args) -> int:
+    from .out_files import LinkRefused
     from .plots import PlotError, draw_declared
     try:
         paths = draw_declared(args.dir)
-    except PlotError as e:
+    except (PlotError, LinkRefused) as e:
         _error(str(e))
         return EXIT_USAGE
     _say(f"fenics-plast plot: {len(paths)} figure(s): {', '.join(p.name for p in paths)} in {args.dir}")

@@ -68,16 +68,19 @@ def read_surface(path, group: str, dim: int, comm, scene_dir=None):
 
 
 def _read_group(gmsh, path, group, dim, scene_dir):
-    """The facets of ``group`` in the Gmsh file ``path`` (a .geo screened and meshed), Gmsh running."""
-    from fenics_plast.geo_screen import screen
+    """The facets of ``group`` in the Gmsh file ``path`` (screened, a .geo meshed), Gmsh running. Gmsh opens
+    the file with its links resolved, the one the screen read, and its kind is that name's suffix in any
+    case (issue 34)."""
+    from fenics_plast.geo_screen import mesh_file_kind, screen
     if not path.is_file():
         raise SceneError(f"file {path} not found")
-    if path.suffix.lower() not in (".geo", ".msh"):
-        raise SceneError(f"file {path}: must end in .geo or .msh")
-    if path.suffix.lower() == ".geo":
-        screen(path, scene_dir)
-    gmsh.open(str(path))
-    if path.suffix.lower() == ".geo":
+    opened, kind = mesh_file_kind(path)
+    if not kind:
+        raise SceneError(f"file {path}: must end in .geo or .msh"
+                         + (f" (it is a symbolic link to {opened})" if opened.name != path.name else ""))
+    screen(path, scene_dir)         # a .msh too: Gmsh reads one that is no mesh as a script
+    gmsh.open(str(opened))
+    if kind == ".geo":
         gmsh.model.geo.synchronize()
         gmsh.model.mesh.generate(dim - 1)
     return _group_facets(gmsh, path, group, dim)
@@ -154,6 +157,19 @@ class MeshedTool:
         from fenics_plast.solvers.surface_gaps import surface_gaps
         return surface_gaps(self.surface, np.asarray(x)[:, :self.dim], self.translation(t, use_ufl=False),
                             derivative=True)
+
+
+def check_tool_size(name, tool: MeshedTool, cell: float, where: str = "") -> None:
+    """SceneError naming ``tools.<name>`` when the tool's surface spans less than ``cell`` [mm] (the body's
+    smallest cell, :func:`fenics_plast.build.smallest_cell`; ``where``: the scene file): a tool shorter
+    than a cell touches the body between its nodes (the nodal contact sees no gap, or one node takes the
+    tool's whole force)."""
+    v = np.asarray(tool.surface.vertices)
+    extent = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0))) if len(v) else 0.0
+    if not extent >= cell:
+        raise SceneError(f"{where + ': ' if where else ''}tools.{name}: the tool's surface spans {extent:.3g} mm, "
+                         f"less than the body's smallest cell ({cell:.3g} mm): contact is found at the body's "
+                         f"nodes, so a tool must be longer than a cell (refine the body's mesh or enlarge the tool)")
 
 
 def meshed_tool(name, spec, dim: int, path, comm, scene_dir) -> MeshedTool:

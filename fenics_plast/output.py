@@ -9,7 +9,14 @@ folder a run must not write into (a file, not writable, a non-empty folder that 
 folder, another scene's results without ``--overwrite``); :func:`make_out_dir` creates it, the
 marker :data:`MARKER` says it is a results folder and of which scene, and the lock :data:`LOCK`
 (:mod:`fenics_plast.run_lock`) keeps a second run out while one runs. :func:`file_name_problem`
-says why a scene, plot or output name cannot become a file name.
+says why a scene, plot or output name cannot become a file name, :func:`reserved_name_problem` why
+it would name a file of the run itself.
+
+Links: every file is written and deleted through :mod:`fenics_plast.out_files` (no symbolic link is
+followed, a link where the run writes is refused); :func:`check_out_dir` refuses up front a folder with
+a link at a name the run writes. The marker lists the files the run wrote (:meth:`RunOutput.claim`, before
+each is created), and a new run (not ``--resume``) first removes exactly those (:func:`remove_listed`):
+no field or figure of an earlier run stays beside a new summary.
 """
 from __future__ import annotations
 
@@ -17,13 +24,18 @@ import csv
 import json
 import math
 import os
+import re
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterable, Mapping
 
 import numpy as np
 
+from .out_files import LinkRefused, link_at, open_write, remove_file, write_atomic
+
 __all__ = ["RunOutput", "to_jsonable", "file_name_problem", "NAME_MAX", "OutputDirError", "MARKER", "LOCK",
-           "results_folder_scene", "check_out_dir", "make_out_dir", "remove_created", "mark_results_folder"]
+           "results_folder_scene", "check_out_dir", "make_out_dir", "remove_created", "mark_results_folder",
+           "LinkRefused", "RUN_FILES", "RESERVED_NAMES", "reserved_name_problem", "run_file_names",
+           "remove_listed", "listed_files", "results_folder_kind", "STUDY_FILES"]
 
 
 def to_jsonable(obj: Any) -> Any:
@@ -61,6 +73,8 @@ class RunOutput:
     * ``write_csv(name, columns)``: a table ``name``.csv from ``{column: 1-D array}``.
     * ``xdmf_path``: where fields go (``out_dir/fields.xdmf``).
     * ``finish(summary)``: summary.json, written last and atomically.
+    * ``claim(*names)``: the files about to be written, added to the marker's list (rank 0) so that
+      the next run removes them (:func:`remove_listed`).
     * ``log(msg)``: a progress line on stdout, rank 0 only (through the progress bar if one is on).
     * ``progress(total, label, ...)``: start the run's :class:`fenics_plast.progress.Progress`
       (rank 0 prints); ``end_progress()`` (also done by ``finish``) ends it.
@@ -75,10 +89,11 @@ class RunOutput:
         self.resume = bool(resume)          # continues a killed run from its checkpoint (checkpoint.py)
         self.checkpointer = None            # set by fenics_plast.checkpoint.Checkpointer
         self.fingerprint = None             # the problem's fingerprint (checkpoint.fingerprint): checkpoints carry it
+        self._claimed: set[str] = set()
         if self.is_root:
             self.out_dir.mkdir(parents=True, exist_ok=True)
             # a summary.json of an earlier run must not make this one look complete if it is killed
-            self.summary_path.unlink(missing_ok=True)
+            remove_file(self.summary_path)
             if self.resume:
                 self._keep_fields_before_resume()
         if self.size > 1:
@@ -94,18 +109,37 @@ class RunOutput:
         """Rank 0, resumed run: fields.xdmf/.h5 of the killed run become fields_part<k>.xdmf/.h5 (its
         frames up to the kill); the resumed run writes a new fields.xdmf from the checkpoint on."""
         xdmf, h5 = self.xdmf_path, self.xdmf_path.with_suffix(".h5")
+        for p in (xdmf, h5):
+            if os.path.islink(p):
+                raise LinkRefused(f"{p}: is a symbolic link: a resumed run does not follow it; remove it")
         if not xdmf.is_file():
             return
         k = 1
-        while self.out_dir.joinpath(f"fields_part{k}.xdmf").exists():
+        while any(os.path.lexists(self.out_dir / f"fields_part{k}{x}") for x in (".xdmf", ".h5")):
             k += 1
         new = self.out_dir / f"fields_part{k}.xdmf"
+        self.claim(new.name, new.with_suffix(".h5").name)
         text = xdmf.read_text(encoding="utf-8", errors="replace")
         if h5.is_file():
-            os.replace(h5, new.with_suffix(".h5"))
+            os.replace(h5, new.with_suffix(".h5"))      # a name of the folder to another: no link followed
             text = text.replace(f"{h5.name}:", f"{new.with_suffix('.h5').name}:")
-        new.write_text(text, encoding="utf-8")
+        write_atomic(new, text)
         xdmf.unlink()
+
+    def claim(self, *names: str) -> None:
+        """Rank 0: ``names`` (files of the folder this run is about to write) join the marker's list of
+        the run's files, which the next run removes before it starts (:func:`remove_listed`). No-op
+        without a marker (a RunOutput used outside the CLI)."""
+        new = [n for n in names if n not in self._claimed]
+        if not new or not self.is_root:
+            return
+        self._claimed.update(new)
+        marker = _read_marker(self.out_dir)
+        if marker is None:
+            return
+        files = [f for f in marker.get("files") or [] if isinstance(f, str)]
+        marker["files"] = files + [n for n in new if n not in files]
+        write_atomic(self.out_dir / MARKER, json.dumps(marker) + "\n", fsync=False)
 
     # -- paths ---------------------------------------------------------------------------------
     @property
@@ -147,7 +181,8 @@ class RunOutput:
         if self._hist_header is None:
             self._hist_header = list(row)
             if self.is_root:
-                self._hist_file = open(self.history_path, "w", newline="", encoding="utf-8")
+                self.claim(self.history_path.name)
+                self._hist_file = open_write(self.history_path, newline="", encoding="utf-8")
                 self._hist_writer = csv.writer(self._hist_file)
                 self._hist_writer.writerow(self._hist_header)
         else:
@@ -168,19 +203,18 @@ class RunOutput:
         if self.is_root:
             path = self.history_path
             if rows:
-                tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-                with open(tmp, "w", newline="", encoding="utf-8") as f:
-                    w = csv.writer(f)
-                    w.writerow(self._hist_header)
-                    for r in rows:
-                        w.writerow([_cell(r.get(k, "")) for k in self._hist_header])
-                    f.flush()
-                    os.fsync(f.fileno())
-                os.replace(tmp, path)
-                self._hist_file = open(path, "a", newline="", encoding="utf-8")
+                import io
+                buf = io.StringIO(newline="")
+                w = csv.writer(buf)
+                w.writerow(self._hist_header)
+                for r in rows:
+                    w.writerow([_cell(r.get(k, "")) for k in self._hist_header])
+                self.claim(path.name)
+                write_atomic(path, buf.getvalue())
+                self._hist_file = open_write(path, mode="a", append=True, newline="", encoding="utf-8")
                 self._hist_writer = csv.writer(self._hist_file)
             else:
-                path.unlink(missing_ok=True)
+                remove_file(path)
 
     def close_history(self) -> None:
         if self._hist_file is not None:
@@ -196,7 +230,8 @@ class RunOutput:
             raise ValueError(f"write_csv({name!r}): columns differ in length: {lengths}")
         if self.is_root:
             n = next(iter(lengths.values()), 0)
-            with open(path, "w", newline="", encoding="utf-8") as f:
+            self.claim(path.name)
+            with open_write(path, newline="", encoding="utf-8") as f:
                 w = csv.writer(f)
                 w.writerow(list(cols))
                 for i in range(n):
@@ -210,13 +245,8 @@ class RunOutput:
         self.close_history()
         path = self.summary_path
         if self.is_root:
-            tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-            with open(tmp, "w", encoding="utf-8") as f:
-                json.dump(to_jsonable(dict(summary)), f, indent=2, allow_nan=False)
-                f.write("\n")
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, path)
+            self.claim(path.name)
+            write_atomic(path, json.dumps(to_jsonable(dict(summary)), indent=2, allow_nan=False) + "\n")
         if self.size > 1:
             self.comm.barrier()
         self.finished = True
@@ -257,10 +287,65 @@ class OutputDirError(ValueError):
     """The output folder cannot be used (exit 2, nothing written)."""
 
 
+#: files every run may write in its folder besides those named after plots and outputs (the marker and
+#: lock: :data:`MARKER`, :data:`LOCK`; the folder checkpoint/ of :mod:`fenics_plast.checkpoint`)
+RUN_FILES = ("history.csv", "summary.json", "fields.xdmf", "fields.h5", "final_shape.csv", ".fenics-plast",
+             ".fenics-plast.lock", "checkpoint")
+#: what a study writes in its folder (``runs/<run>/`` holds each run, with run.log and study_run.json)
+STUDY_FILES = ("study.csv", "study.md", "study.png", "runs", "run.log", "study_run.json")
+#: names a plot (<name>.png) or an output (<name>.csv) may not take: they name files of the run itself,
+#: of ``fenics-plast point`` (point_<path>.csv in results/<scene>/) or of a study (compared casefolded)
+RESERVED_NAMES = ("history", "summary", "fields", "final_shape", "checkpoint", "point_uniaxial", "point_shear",
+                  "point_table", "study", "study_run", "run", "runs")
+_RESERVED_RE = re.compile(r"^(fields_part\d+)$", re.IGNORECASE)
+
+
+def reserved_name_problem(name: Any) -> str | None:
+    """Why ``name`` may not name a plot or an output: it maps onto a file the run writes itself (history,
+    summary, fields, final_shape, checkpoint, ...; :data:`RESERVED_NAMES`). None: it may."""
+    if not isinstance(name, str):
+        return None
+    stem = name.casefold()
+    if stem in RESERVED_NAMES or _RESERVED_RE.match(name):
+        return (f"is reserved: it names a file that fenics-plast writes itself ({name}.csv/.png beside "
+                f"{', '.join(RUN_FILES[:5])}); choose another name")
+    return None
+
+
+def run_file_names(problem) -> list[str]:
+    """The names a run of ``problem`` writes in its folder (:data:`RUN_FILES`, ``<plot>.png``,
+    ``<output>.csv``), for the up-front check of links (:func:`check_out_dir`)."""
+    names = list(RUN_FILES)
+    names += [f"{n}.png" for n in getattr(problem, "plots", {}) or {}]
+    names += [f"{n}.csv" for n in getattr(problem, "outputs", {}) or {}]
+    return names
+
+
 #: marker of a results folder: JSON {"scene": name or null}, written when a run takes the folder
 MARKER = ".fenics-plast"
 #: a run's lock file in its folder: JSON {"pid", "host"}, created atomically, removed at the end
 LOCK = ".fenics-plast.lock"
+
+
+def _read_marker(path) -> dict | None:
+    """The marker of folder ``path`` as a dict (None: none, or unreadable, or a link)."""
+    p = Path(path) / MARKER
+    if os.path.islink(p):
+        return None
+    try:
+        m = json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return m if isinstance(m, dict) else None
+
+
+def results_folder_kind(path: str | os.PathLike) -> str | None:
+    """``"run"`` or ``"study"`` for a results folder (what its marker says; older folders: run), None
+    for another folder."""
+    m = _read_marker(path)
+    if m is not None and (m.get("scene") is None or isinstance(m.get("scene"), str)):
+        return "study" if m.get("kind") == "study" else "run"
+    return "run" if results_folder_scene(path)[0] else None
 
 
 def results_folder_scene(path: str | os.PathLike) -> tuple[bool, str | None]:
@@ -290,12 +375,17 @@ def results_folder_scene(path: str | os.PathLike) -> tuple[bool, str | None]:
     return False, None
 
 
-def check_out_dir(out_dir: str | os.PathLike, scene: str, overwrite: bool = False, resume: bool = False) -> None:
+def check_out_dir(out_dir: str | os.PathLike, scene: str, overwrite: bool = False, resume: bool = False,
+                  names: Iterable[str] = (), kind: str = "run") -> None:
     """Raise :class:`OutputDirError` unless a run of ``scene`` may write into ``out_dir`` (no side
     effect): a new folder whose nearest existing parent is a writable folder; an existing writable
     folder that is empty or a results folder of the same scene (of another scene: with
     ``overwrite``). A non-empty folder that is not a results folder is refused, ``overwrite`` or not.
-    ``resume``: the folder of the killed run (checked by :func:`fenics_plast.checkpoint.check_resume`)."""
+    ``resume``: the folder of the killed run (checked by :func:`fenics_plast.checkpoint.check_resume`).
+    A symbolic link (or a FIFO, a device) at a name the run writes (:data:`RUN_FILES`, ``names``:
+    :func:`run_file_names`) or among checkpoint/'s files is refused. ``kind``: ``"study"`` for a
+    study's folder (:data:`STUDY_FILES`; a run's folder is refused as a study's and the other way
+    round, unless ``overwrite``)."""
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise OutputDirError(f"--out {out}: is a file, not a folder: choose a folder for the results")
@@ -310,6 +400,17 @@ def check_out_dir(out_dir: str | os.PathLike, scene: str, overwrite: bool = Fals
         return
     if not os.access(out, os.W_OK | os.X_OK):
         raise OutputDirError(f"--out {out}: the folder is not writable")
+    link = link_at(out, [*RUN_FILES, *(STUDY_FILES if kind == "study" else ()), *names])
+    ck = out / "checkpoint"
+    if link is None and ck.is_dir() and not ck.is_symlink():
+        try:
+            link = link_at(ck, sorted(n for n in os.listdir(ck) if re.match(r"^\.?ckpt_", n)))
+        except OSError:
+            pass
+    if link is not None:
+        raise OutputDirError(f"--out {out}: {link} is a symbolic link (or not a regular file or folder) where "
+                             f"fenics-plast writes: it does not write through links, out of the folder; nothing "
+                             f"was written: remove it, or choose another folder")
     if resume:
         return
     try:
@@ -319,6 +420,9 @@ def check_out_dir(out_dir: str | os.PathLike, scene: str, overwrite: bool = Fals
     if not entries:
         return
     is_results, name = results_folder_scene(out)
+    if (not is_results and kind == "study" and _is_file(out / "study.csv") and _is_file(out / "study.md")
+            and (out / "runs").is_dir() and not (out / "runs").is_symlink()):
+        return                              # a study's folder of an older fenics-plast (no marker)
     if not is_results:
         raise OutputDirError(f"--out {out}: the folder is not empty and is not a fenics-plast results folder "
                              f"(no {MARKER} marker or summary.json of a run): nothing was written; choose an "
@@ -326,6 +430,14 @@ def check_out_dir(out_dir: str | os.PathLike, scene: str, overwrite: bool = Fals
     if name is not None and name != scene and not overwrite:
         raise OutputDirError(f"--out {out}: the folder holds the results of scene {name!r}, not {scene!r}: "
                              f"choose another folder, or pass --overwrite to replace them")
+    has = results_folder_kind(out)
+    if has != kind and not overwrite:
+        raise OutputDirError(f"--out {out}: the folder holds the results of a {has}, not of a {kind}: choose "
+                             f"another folder, or pass --overwrite to replace them")
+
+
+def _is_file(p: Path) -> bool:
+    return not p.is_symlink() and p.is_file()
 
 
 def make_out_dir(out_dir: str | os.PathLike) -> list[Path]:
@@ -359,10 +471,58 @@ def remove_created(created: list[Path]) -> None:
             break
 
 
-def mark_results_folder(out_dir: str | os.PathLike, scene: str | None) -> None:
-    """Write the marker :data:`MARKER` of a results folder of ``scene`` (None: any scene)."""
-    path = Path(out_dir) / MARKER
-    tmp = path.with_name(f"{path.name}.tmp{os.getpid()}")
-    tmp.write_text(json.dumps({"scene": scene, "written_by": "fenics-plast"}) + "\n", encoding="utf-8")
-    os.replace(tmp, path)
+def mark_results_folder(out_dir: str | os.PathLike, scene: str | None, kind: str = "run") -> None:
+    """Write the marker :data:`MARKER` of a results folder of ``scene`` (None: any scene); ``kind``:
+    ``"study"`` for a study's folder. The list of the files earlier runs wrote (``files``) is kept:
+    :func:`remove_listed` removes them. A link at the marker's name is refused (:class:`LinkRefused`)."""
+    marker = {"scene": scene, "written_by": "fenics-plast"}
+    if kind != "run":
+        marker["kind"] = kind
+    marker["files"] = listed_files(out_dir)
+    write_atomic(Path(out_dir) / MARKER, json.dumps(marker) + "\n")
+
+
+def _plain_name(name: Any) -> bool:
+    return (isinstance(name, str) and name not in (MARKER, LOCK, "", ".", "..") and "/" not in name
+            and "\0" not in name and len(name) <= 255)
+
+
+def listed_files(out_dir: str | os.PathLike) -> list[str]:
+    """The files an earlier run wrote in ``out_dir``: the marker's list, or for a folder of an older
+    fenics-plast (no list) the files a run writes (history.csv, summary.json, fields*.xdmf/.h5,
+    final_shape.csv) and those its summary.json's plots and outputs name."""
+    out = Path(out_dir)
+    m = _read_marker(out)
+    if m is not None and isinstance(m.get("files"), list):
+        return [f for f in m["files"] if _plain_name(f)]
+    if not results_folder_scene(out)[0]:
+        return []
+    names = list(RUN_FILES[:5])
+    try:
+        names += sorted(n for n in os.listdir(out) if re.match(r"^fields_part\d+\.(xdmf|h5)$", n))
+    except OSError:
+        pass
+    try:
+        settings = json.loads((out / "summary.json").read_text(encoding="utf-8")).get("scene_settings") or {}
+    except (OSError, ValueError, AttributeError):
+        settings = {}
+    if isinstance(settings, dict):
+        for key, suffix in (("plots", ".png"), ("outputs", ".csv")):
+            table = settings.get(key)
+            if isinstance(table, dict):
+                names += [f"{n}{suffix}" for n in table if file_name_problem(n) is None]
+    return [n for n in dict.fromkeys(names) if _plain_name(n)]
+
+
+def remove_listed(out_dir: str | os.PathLike) -> list[str]:
+    """Rank 0, a new run (not ``--resume``) into a results folder: remove the files the earlier run wrote
+    (:func:`listed_files`): only regular files directly in the folder, never through a link, nothing
+    else; the marker's list is emptied. Returns the names removed."""
+    out = Path(out_dir)
+    removed = [n for n in listed_files(out) if remove_file(out / n)]
+    m = _read_marker(out)
+    if m is not None:
+        m["files"] = []
+        write_atomic(out / MARKER, json.dumps(m) + "\n")
+    return removed
 

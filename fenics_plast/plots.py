@@ -67,8 +67,11 @@ class Cells:
 def read_csv(path: str | Path) -> dict[str, np.ndarray]:
     """CSV with a header row -> {column: float array}; empty cells -> NaN."""
     path = Path(path)
-    with open(path, newline="", encoding="utf-8") as f:
-        rows = list(csv.reader(f))
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = list(csv.reader(f))
+    except (OSError, UnicodeDecodeError) as e:
+        raise PlotError(f"{path}: cannot be read: {getattr(e, 'strerror', None) or e}") from None
     if not rows:
         raise PlotError(f"{path}: empty file (no header)")
     header, body = rows[0], [r for r in rows[1:] if r]
@@ -119,6 +122,10 @@ def _draw_figures(out_dir: Path, figures, title, render, processes=1) -> list[Pa
             raise PlotError(f"{src}: no column(s) {', '.join(missing)} for {fig.name}.png "
                             f"(columns: {', '.join(data)})")
         path = out_dir / f"{fig.name}.png"
+        from .out_files import link_at
+        if link_at(out_dir, [path.name]) is not None:
+            raise PlotError(f"{path}: is a symbolic link (or not a regular file): fenics-plast does not write "
+                            f"through links, out of the folder: remove it; no figure was drawn")
         full_title = fig.title + (f"\n{title}" if title else "")
         jobs.append((_draw_lines if isinstance(fig, Lines) else _draw_cells, path, fig, data, full_title))
         paths.append(path)
@@ -220,7 +227,18 @@ def _draw_lines(path: Path, spec: Lines, data, title) -> None:
     if n > 1:
         ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    _save(fig, path)
+
+
+def _save(fig, path) -> None:
+    """``fig`` as a PNG at ``path`` (a file name: written without following links, out_files) or into a
+    file object."""
+    if isinstance(path, (str, Path)):
+        from .out_files import open_write
+        with open_write(path, mode="wb") as f:
+            fig.savefig(f, dpi=120, format="png")
+    else:
+        fig.savefig(path, dpi=120, format="png")
 
 
 def _poly_columns() -> list[str]:
@@ -253,7 +271,7 @@ def _draw_cells(path: Path, spec: Cells, data, title) -> None:
     vmax = np.nanmax(val) if val.size else math.nan
     ax.set_title(f"{title}, max {spec.value} {vmax:.3g}", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    _save(fig, path)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -329,20 +347,21 @@ def declared_figures(settings: Mapping[str, Any], references: Mapping[str, Any] 
 def _check_names(out_dir: Path, settings: Mapping[str, Any]) -> None:
     """PlotError unless every plot name (-> <name>.png) and profile output (<output>.csv) is a plain
     file name in ``out_dir``: settings read from a results folder's summary.json are not trusted."""
-    from .output import file_name_problem
+    from .output import file_name_problem, reserved_name_problem
     plots = settings.get("plots") or {}
     if not isinstance(plots, Mapping):
         raise PlotError(f"{out_dir}/summary.json: scene_settings.plots is not a table")
     for name, p in plots.items():
-        why = file_name_problem(name)
+        why = file_name_problem(name) or reserved_name_problem(name)
         if why:
             raise PlotError(f"{out_dir}/summary.json: plots.{name!r}: the plot's name {why} (it names {name!r}.png "
                             f"in the folder): refused")
         if not isinstance(p, Mapping) or "type" not in p:
             raise PlotError(f"{out_dir}/summary.json: plots.{name}: not a plot table (no type)")
         out = p.get("output")
-        if p["type"] == "profile" and file_name_problem(out):
-            raise PlotError(f"{out_dir}/summary.json: plots.{name}.output = {out!r}: {file_name_problem(out)} "
+        if p["type"] == "profile" and (file_name_problem(out) or reserved_name_problem(out)):
+            raise PlotError(f"{out_dir}/summary.json: plots.{name}.output = {out!r}: "
+                            f"{file_name_problem(out) or reserved_name_problem(out)} "
                             f"(it names the profile's CSV file in the folder): refused")
 
 

@@ -6,6 +6,7 @@ mean eqps [-], temperature [K]), the declared plots, and the contact pairs' pene
 """
 from __future__ import annotations
 
+import os
 import sys
 
 from dolfinx import io
@@ -50,9 +51,30 @@ def penetration_report(name, penetration, depth, penalty, default_penalty, comm)
     return out
 
 
+def _claim(output, *names) -> None:
+    """``output.claim(names)`` (the marker's list of the run's files) when the output keeps one."""
+    claim = getattr(output, "claim", None)
+    if claim is not None:
+        claim(*names)
+
+
 def open_fields(problem, output, comm, mesh):
     if not problem.output.xdmf:
         return None
+    failed = None
+    if comm.rank == 0:          # HDF5 follows links and truncates in place: no link, a new file (out_files)
+        from fenics_plast.out_files import remove_file
+        _claim(output, output.xdmf_path.name, output.xdmf_path.with_suffix(".h5").name)
+        for p in (output.xdmf_path, output.xdmf_path.with_suffix(".h5")):
+            if os.path.lexists(p) and not (os.path.isfile(p) and not os.path.islink(p)):
+                failed = (f"{p}: is a symbolic link (or not a regular file): fenics-plast does not write through "
+                          f"it; remove it, or choose another output folder")
+                break
+            remove_file(p)
+    failed = comm.bcast(failed, root=0) if comm.size > 1 else failed
+    if failed:
+        from fenics_plast.out_files import LinkRefused
+        raise LinkRefused(failed)
     xf = io.XDMFFile(comm, str(output.xdmf_path), "w")
     xf.write_mesh(mesh)
     return xf
@@ -107,8 +129,10 @@ def draw_plots(problem, output):
     """The scene's [plots] as PNGs (rank 0); a figure that fails is logged and does not fail the run."""
     if not problem.output.plots or not output.is_root or not problem.plots:
         return
+    from fenics_plast.plots import declared_figures
     from fenics_plast.quantities import study_keys
     output.close_history()
+    _claim(output, *(f"{fig.name}.png" for fig in declared_figures(problem.to_dict())))
     args = (output.out_dir, problem.to_dict(), problem.name, study_keys(problem.outputs)["references"])
     try:
         worker = getattr(output, "plot_worker", None)

@@ -29,17 +29,26 @@ __all__ = ["read_mesh", "check_mesh_parameters", "check_on_mesh", "check_materia
 def read_mesh(problem, comm, trust_mesh_script=False):
     """Mesh + tags + groups; checks every group and region the scene names (SceneError, exit 2).
     The mesh file is screened first unless ``trust_mesh_script`` (:mod:`fenics_plast.geo_screen`;
-    Include and Merge may read the scene file's folder and the package's meshes/)."""
+    Include and Merge may read the scene file's folder and the package's meshes/). The names are checked
+    in the order of :func:`scene_groups` (boundary conditions first); a facet group the scene names that
+    shares a facet with another group (mesh.file, both groups and the key named: a facet has one tag), or
+    that holds no facet of the body, is refused (issue 34)."""
     m = problem.mesh
     where = f"{problem.path}"
     gdim = 3 if m.geometry == "3d" else 2     # cell regions have dim gdim, facet groups gdim - 1
     check_mesh_parameters(problem, comm, gdim, trust_mesh_script)
+    fdim = gdim - 1
+    named = scene_groups(problem, gdim)
+    used = {}                                   # facet group -> the first key naming it
+    for dotted, name, dim in named:
+        if dim == fdim:
+            used.setdefault(name, dotted)
     try:
         mesh, ct, ft, groups = mesh_from_file(comm, problem.mesh_file, m.parameters, m.refine, gdim=gdim,
-                                              trust_script=trust_mesh_script, scene_dir=problem.path.parent)
+                                              trust_script=trust_mesh_script, scene_dir=problem.path.parent,
+                                              used_groups=used)
     except MeshError as e:
         raise SceneError(f"{where}: mesh.file: {e}") from None
-    fdim = gdim - 1
     facets = sorted(n for n, (d, _) in groups.items() if d == fdim)
     regions = sorted(n for n, (d, _) in groups.items() if d == gdim)
     facet_kind = "facet group (Physical Curve)" if gdim == 2 else "facet group (Physical Surface)"
@@ -54,28 +63,46 @@ def read_mesh(problem, comm, trust_mesh_script=False):
             raise SceneError(f"{where}: {dotted} = {name!r} is not a {kind} of the mesh: it is a {what}")
         raise SceneError(f"{where}: {dotted} = {name!r} is not a {kind} of the mesh: the mesh's "
                          f"{'facet groups' if dim == fdim else 'regions'} are {', '.join(have) or 'none'}")
-    for n, b in problem.boundary.items():
-        if b.group is not None:                 # (a wall without group stops every node)
-            need(f"boundary.{n}.group", b.group, fdim)
-    for n, c in problem.contact.items():
-        need(f"contact.{n}.group", c.group, fdim)
-        if c.get("master") is not None:
-            need(f"contact.{n}.master", c.master, fdim)
-    for n, o in problem.outputs.items():
-        for k in ("group", "opposite"):
-            if o.get(k) is not None:
-                need(f"outputs.{n}.{k}", o.get(k), fdim)
-        for r in o.get("regions") or ():
-            need(f"outputs.{n}.regions", r, gdim)
-    for n, mat in problem.materials.items():
-        for r in mat.regions or ():
-            need(f"materials.{n}.regions", r, gdim)
-    for n, iv in problem.initial_velocity.items():
-        for r in iv.regions or ():
-            need(f"initial_velocity.{n}.regions", r, gdim)
+    for dotted, name, dim in named:
+        need(dotted, name, dim)
+    n_owned = mesh.topology.index_map(fdim).size_local
+    counts = np.array([int((ft.find(groups[n][1]) < n_owned).sum()) for n in used], dtype=np.int64)
+    counts = comm.allreduce(counts, op=MPI.SUM) if comm.size > 1 else counts
+    for (n, dotted), count in zip(used.items(), counts):
+        if count == 0:
+            raise SceneError(f"{where}: {dotted} = {n!r}: the group has no facet on the body (its elements are no "
+                             f"cell's {'edges' if gdim == 2 else 'faces'}): name a group on the body's boundary")
     check_material_regions(problem, ct, groups, mesh)
     check_on_mesh(problem, mesh, ct, ft, groups)
     return mesh, ct, ft, groups
+
+
+def scene_groups(problem, gdim):
+    """[(scene key, group or region name, dimension)] of every group and region the scene names, in the
+    order their names are checked: boundary conditions first (a misspelt boundary group is named as
+    such), then contact, outputs, materials and initial velocities."""
+    fdim = gdim - 1
+    out = []
+    for n, b in problem.boundary.items():
+        if b.group is not None:                 # (a wall without group stops every node)
+            out.append((f"boundary.{n}.group", b.group, fdim))
+    for n, c in problem.contact.items():
+        out.append((f"contact.{n}.group", c.group, fdim))
+        if c.get("master") is not None:
+            out.append((f"contact.{n}.master", c.master, fdim))
+    for n, o in problem.outputs.items():
+        for k in ("group", "opposite"):
+            if o.get(k) is not None:
+                out.append((f"outputs.{n}.{k}", o.get(k), fdim))
+        for r in o.get("regions") or ():
+            out.append((f"outputs.{n}.regions", r, gdim))
+    for n, mat in problem.materials.items():
+        for r in mat.regions or ():
+            out.append((f"materials.{n}.regions", r, gdim))
+    for n, iv in problem.initial_velocity.items():
+        for r in iv.regions or ():
+            out.append((f"initial_velocity.{n}.regions", r, gdim))
+    return out
 
 
 #: the memory a run needs at the least per cell [bytes] (2-D, 3-D): half what the cheapest run takes,
@@ -97,13 +124,15 @@ def check_mesh_parameters(problem, comm, gdim, trust_mesh_script=False):
     validation); and the mesh the parameters and mesh.refine ask for
     (:func:`fenics_plast.meshing.estimate_cells`, on the screened file) fits in the machine's memory at
     :data:`MIN_BYTES_PER_CELL`."""
-    from fenics_plast.geo_screen import GeoScreenError, screen
-    from fenics_plast.meshing import estimate_cells, geo_parameters, machine_memory, refined
+    from fenics_plast.geo_screen import GeoScreenError, mesh_file_kind, screen
+    from fenics_plast.meshing import (estimate_cells, estimate_cells_from_sizes, geo_parameters, machine_memory,
+                                      refined)
     from fenics_plast.schema import is_cell_count
     m, where, path = problem.mesh, problem.path, problem.mesh_file
-    if path.suffix.lower() != ".geo" or not path.is_file():
+    opened, kind = mesh_file_kind(path)             # links resolved: Gmsh runs the file screened (issue 34)
+    if kind != ".geo" or not opened.is_file():
         return                                      # (mesh_from_file reports what is wrong with the file)
-    declared = geo_parameters(path)
+    declared = geo_parameters(opened)
     for k, x in m.parameters.items():
         if is_cell_count(k):
             continue
@@ -120,16 +149,27 @@ def check_mesh_parameters(problem, comm, gdim, trust_mesh_script=False):
                              f"{lo if lo is not None else '-inf'} <= {k} <= {hi if hi is not None else 'inf'} "
                              f"(Min and Max of its DefineConstant)")
     values = refined(m.parameters, m.refine)
-    cells = None
+    cells, sizes, died = None, None, None
     if comm.rank == 0:
         try:
             if not trust_mesh_script:
                 screen(path, problem.path.parent)   # Gmsh reads no file the screen refuses
-            cells = estimate_cells(path, values, gdim)
+            cells = estimate_cells(opened, values, gdim)
+            sizes = estimate_cells_from_sizes(opened, values, gdim)
         except GeoScreenError:
             cells = None                            # mesh_from_file reports it
-    cells = comm.bcast(cells, root=0) if comm.size > 1 else cells
+        except MeshError as e:                      # Gmsh died in a trial meshing
+            died = f"{where}: mesh.file: {e}"
+    cells, sizes, died = comm.bcast((cells, sizes, died), root=0) if comm.size > 1 else (cells, sizes, died)
+    if died:
+        raise SceneError(died)
     memory = machine_memory()
+    if sizes is not None and memory is not None and sizes[0] * MIN_BYTES_PER_CELL[gdim] > memory:
+        n, what = sizes
+        raise SceneError(f"{where}: mesh.file: {path.name} sets {what} mm: about {n:.3g} cells, which need at "
+                         f"least {n * MIN_BYTES_PER_CELL[gdim] / 2**30:.3g} GiB of memory "
+                         f"({MIN_BYTES_PER_CELL[gdim] / 1e3:g} kB per cell, half what the cheapest run takes); this "
+                         f"machine has {memory / 2**30:.3g} GiB: set a larger size in the file")
     if cells is None or memory is None or cells * MIN_BYTES_PER_CELL[gdim] <= memory:
         return
     counts = ", ".join(f"{k} = {v:g}" for k, v in m.parameters.items() if is_cell_count(k))
@@ -228,6 +268,22 @@ def check_on_mesh(problem, mesh, cell_tags, facet_tags, groups):
                              f"boundary.{other} (type = "
                              f"{problem.boundary[other].type!r}): one condition per component of a group")
         holder[(b.group, c)] = n
+    labels = {"3d": "xyz", "plane_strain": "xy"}.get(geometry, "rz")
+    for n, b in problem.boundary.items():      # a load on a held component would be ignored
+        if b.type not in ("traction", "pressure") or b.group is None:
+            continue
+        if b.type == "traction":
+            held = [component_index(k, geometry) for k in b.components
+                    if (b.group, component_index(k, geometry)) in holder]
+        else:                                   # a pressure on a straight group: its normal component
+            V = V if V is not None else dc.vector_space(mesh)
+            c = _straight_normal(V, facet_tags, groups[b.group][1])
+            held = [c] if c is not None and (b.group, c) in holder else []
+        if held:
+            other = holder[(b.group, held[0])]
+            raise SceneError(f"{where}: boundary.{n}: component {labels[held[0]]} of group {b.group!r} is held by "
+                             f"boundary.{other} (type = {problem.boundary[other].type!r}): a {b.type} there would be "
+                             f"ignored (the condition takes it as a reaction): one condition per component of a group")
     for n, o in problem.outputs.items():
         if o.quantity == "reaction" and (o.group, component_index(o.component, geometry)) not in holder:
             raise SceneError(f"{where}: outputs.{n}: group {o.group!r} has no boundary condition on component "
@@ -256,6 +312,24 @@ def check_material_regions(problem, cell_tags, groups, mesh):
     verb = "leaves" if len(mats) == 1 else "leave"
     raise SceneError(f"{problem.path}: {keys} {verb} region(s) {what} without a material: every cell needs "
                      f"one (add the region to a material's regions)")
+
+
+def _straight_normal(V, facet_tags, tag):
+    """The coordinate constant over the group's nodes (0: x, 1: y, 2: z), or None when none is (the group
+    is not straight, or is empty) (collective)."""
+    gdim = V.mesh.geometry.dim
+    nodes = fem.locate_dofs_topological(V, V.mesh.topology.dim - 1, facet_tags.find(tag))
+    X = V.tabulate_dof_coordinates()[nodes, :gdim]
+    comm = V.mesh.comm
+    lo = X.min(axis=0) if len(X) else np.full(gdim, np.inf)
+    hi = X.max(axis=0) if len(X) else np.full(gdim, -np.inf)
+    comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)
+    comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
+    span = hi - lo
+    if not np.isfinite(span).all():
+        return None
+    scale = max(span.max(), 1e-300)
+    return next((c for c in range(gdim) if span[c] <= 1e-9 * scale), None)
 
 
 def symmetry_component(V, facet_tags, tag, where):

@@ -13,7 +13,7 @@ from typing import Any
 
 from fenics_plast import meshed_tools
 from fenics_plast.errors import SceneError
-from fenics_plast.output import file_name_problem
+from fenics_plast.output import file_name_problem, reserved_name_problem
 from fenics_plast.expressions import ExpressionError, check_times, parse_value
 from fenics_plast.hardening_laws import laws
 from fenics_plast.quantities.registry import column_names, kind
@@ -347,18 +347,20 @@ def _shown(name: str) -> str:
 
 def _name_checks(t: dict[str, Any], v: _Validator):
     """Names that become file names (output.file_name_problem): scene.name (results/<name>), plots
-    (<name>.png) and outputs (<name>.csv for a thickness profile; checked for every output)."""
+    (<name>.png) and outputs (<name>.csv for a thickness profile; checked for every output); plots and
+    outputs may not take the names of the run's own files (output.reserved_name_problem: history, summary,
+    fields, final_shape, checkpoint, ...)."""
     name = t["scene"].name
     why = file_name_problem(name)
     if why:
         v.fail(f"scene.name = {_shown(name) if len(name) > 60 else _fmt(name)}: the name {why} (it names the "
                f"default output folder results/<name>)")
     for n in t["plots"]:
-        why = file_name_problem(n)
+        why = file_name_problem(n) or reserved_name_problem(n)
         if why:
             v.fail(f"plots.{_shown(n)}: the plot's name {why} (it names the file <name>.png in the output folder)")
     for n in t["outputs"]:
-        why = file_name_problem(n)
+        why = file_name_problem(n) or reserved_name_problem(n)
         if why:
             v.fail(f"outputs.{_shown(n)}: the output's name {why} (it names a column of history.csv and, for a "
                    f"thickness profile, the file <name>.csv in the output folder)")
@@ -597,8 +599,16 @@ def _before_run_checks(t: dict[str, Any], v: _Validator):
                        f"also held by boundary.{other} (type = {t['boundary'][other].type!r}): one condition per "
                        f"component of a group (merge boundary.{other} and boundary.{n})")
             holder[(b.group, c)] = n
+    names = component_names(geometry)         # (a traction or pressure on a held component: scene_mesh.check_on_mesh)
     symmetric = {b.group for b in t["boundary"].values() if b.type == "symmetry"}
-    ctx = dict(explicit=explicit, components=component_names(geometry), holder=holder, symmetric=symmetric)
+    # a reaction on a group no condition holds is refused on the mesh (scene_mesh.check_on_mesh), once the
+    # groups the scene names are known to exist: a misspelt boundary group is named there as such, not as
+    # the reaction's missing condition
+    deferred = dict(holder)
+    if any(b.group is not None for b in t["boundary"].values()):
+        deferred.update({(o.group, c): "(checked on the mesh)" for o in t["outputs"].values()
+                         if o.get("group") is not None for c in set(names.values()) if (o.group, c) not in holder})
+    ctx = dict(explicit=explicit, components=names, holder=deferred, symmetric=symmetric)
     for n, o in t["outputs"].items():
         _kind_check(o, "check_boundary", f"outputs.{n}", ctx, v)
     times = check_times(analysis_end(t))

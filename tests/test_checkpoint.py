@@ -361,7 +361,7 @@ def test_resume_refuses_an_edited_mesh_file_and_reports_a_corrupt_checkpoint(tmp
                        env=dict(kill_env("after"), FENICS_PLAST_PROGRESS="off"))
     assert r.returncode == 137, r.stdout[-2000:] + r.stderr[-2000:]
     last = check_killed_dir(out, "after")
-    assert set(last["fingerprint"]["files"]) == {str(geo.resolve())} and len(last["fingerprint"]["mesh"]) == 64
+    assert set(last["fingerprint"]["files"]) == {"round_bar.geo"} and len(last["fingerprint"]["mesh"]) == 64
     original = geo.read_text()
     before = {p.name: p.read_bytes() for p in list(out.iterdir()) + list((out / "checkpoint").iterdir()) if p.is_file()}
 
@@ -372,7 +372,7 @@ def test_resume_refuses_an_edited_mesh_file_and_reports_a_corrupt_checkpoint(tmp
     r = resume()
     assert r.returncode == 2, r.stdout[-2000:] + r.stderr[-2000:]
     assert "the problem changed since the checkpoint was written" in r.stderr
-    assert f"the mesh file {geo.resolve()} was edited" in r.stderr and "the mesh differs" in r.stderr
+    assert "the mesh file round_bar.geo was edited" in r.stderr and "the mesh differs" in r.stderr
     geo.write_text(original + "// a comment\n")        # the same mesh, another file: refused all the same
     r = resume()
     assert r.returncode == 2 and "was edited" in r.stderr and "the mesh differs" not in r.stderr, r.stderr

@@ -33,6 +33,9 @@ def add_study_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     p.add_argument("--keep-outputs", action="store_true",
                    help="keep each run's fields.xdmf and plots (off by default: output.xdmf=false, "
                         "output.plots=false)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="let --out name the results folder of another scene's study or of a run (replaced); a "
+                        "non-empty folder that is not a results folder is refused all the same")
     p.add_argument("--trust-mesh-script", action="store_true",
                    help="passed to every run: let the scene's Gmsh .geo run any command it contains (see "
                         "`fenics-plast run --help`)")
@@ -57,7 +60,7 @@ def study_from_args(args) -> int:
         cmd = study_command(args.scene, varies, args.set, out, args.np, args.results, trust_mesh_script=trust)
         study = run_study(args.scene, varies, out, args.set, results=results, np_ranks=args.np,
                           timeout=args.timeout, reuse=args.reuse, keep_outputs=args.keep_outputs, command=cmd,
-                          trust_mesh_script=trust)
+                          trust_mesh_script=trust, overwrite=getattr(args, "overwrite", False))
     except StudyError as e:
         print(f"error: {e}", file=sys.stderr, flush=True)
         return 2

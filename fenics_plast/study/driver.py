@@ -12,7 +12,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
-from ..output import OutputDirError
+from ..out_files import LinkRefused, make_dir
+from ..output import (LOCK, MARKER, OutputDirError, STUDY_FILES, check_out_dir, make_out_dir, mark_results_folder,
+                      remove_created, remove_listed)
 from ..run_lock import RunLock
 from .execute import Run, execute, prevalidate
 from .plan import StudyError, Vary, combinations, non_discretisation_keys, run_label, run_name, study_command
@@ -54,12 +56,18 @@ def _take_declared(study: Study, results: Sequence[str] | None, log: Callable[[s
 def run_study(scene: str | Path, varies: Sequence[Vary], out: str | Path, sets: Iterable[str] = (),
               results: Sequence[str] | None = None, np_ranks: int = 1, timeout: float | None = None,
               reuse: bool = False, keep_outputs: bool = False, command: str | None = None,
-              log: Callable[[str], None] = print, trust_mesh_script: bool = False) -> Study:
+              log: Callable[[str], None] = print, trust_mesh_script: bool = False,
+              overwrite: bool = False) -> Study:
     """Run the study and write study.csv, study.md and study.png into ``out``. Raises StudyError
     (bad arguments: nothing run) when the scene or the fixed overrides are invalid.
 
     ``results``: the summary keys to compare (default: the runs' declared ``key_results``);
-    ``trust_mesh_script``: each run gets ``--trust-mesh-script``."""
+    ``trust_mesh_script``: each run gets ``--trust-mesh-script``.
+
+    ``out`` follows the rules of ``run --out`` (:func:`~fenics_plast.output.check_out_dir`): a new or
+    empty folder, or a study's results folder (its marker) of the same scene (another scene's, or a run's:
+    ``overwrite``); a non-empty folder of the user's is refused, and so is a symbolic link where the
+    study writes (study.csv/md/png, runs/, runs/<run>/, the marker): nothing is written through links."""
     from ..problem import SceneError, load_problem
 
     scene = Path(scene).resolve()
@@ -71,19 +79,33 @@ def run_study(scene: str | Path, varies: Sequence[Vary], out: str | Path, sets: 
         raise StudyError(str(e)) from None
     fixed = list(sets) if keep_outputs else ["output.xdmf=false", "output.plots=false", *sets]
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    combos = combinations(varies)
+    names = [run_name(i, combo, varies) for i, combo in enumerate(combos)]
     try:
+        check_out_dir(out, base.name, overwrite=overwrite, kind="study",
+                      names=[*STUDY_FILES, *(f"runs/{n}/{f}" for n in names for f in
+                                             (MARKER, LOCK, "run.log", "study_run.json", "summary.json"))])
+    except OutputDirError as e:
+        raise StudyError(str(e)) from None
+    created = []
+    try:
+        created = make_out_dir(out)
         lock = RunLock.acquire(out)          # one study (or run) per folder at a time
     except OutputDirError as e:
+        remove_created(created)
         raise StudyError(str(e)) from None
     if lock.warning:
         log(lock.warning)
     try:
-        (out / "runs").mkdir(exist_ok=True)
+        try:
+            mark_results_folder(out, base.name, kind="study")
+            remove_listed(out)               # what a run wrote there (a run's folder taken with --overwrite)
+            make_dir(out / "runs", root=out)
+        except LinkRefused as e:
+            raise StudyError(str(e)) from None
         study = Study(scene=scene, analysis=base.analysis.type, scene_name=base.name, varies=list(varies),
                       sets=sets, keys=[], info=[], out=out, np_ranks=np_ranks,
                       command=command or study_command(str(scene), varies, sets, str(out), np_ranks))
-        combos = combinations(varies)
         for i, combo in enumerate(combos):
             run = Run(name=run_name(i, combo, varies), label=run_label(combo, varies), settings=combo)
             run_sets = fixed + [f"{k}={v}" for k, v in combo.items()]
@@ -92,8 +114,11 @@ def run_study(scene: str | Path, varies: Sequence[Vary], out: str | Path, sets: 
                 run.status, run.reason = "invalid", why
             else:
                 log(f"study: run {i + 1}/{len(combos)} {run.label} ...")
-                execute(run, scene, run_sets, out / "runs" / run.name, np_ranks=np_ranks, timeout=timeout,
-                        reuse=reuse, trust_mesh_script=trust_mesh_script)
+                try:
+                    execute(run, scene, run_sets, out / "runs" / run.name, np_ranks=np_ranks, timeout=timeout,
+                            reuse=reuse, trust_mesh_script=trust_mesh_script, root=out)
+                except (LinkRefused, OutputDirError) as e:
+                    raise StudyError(str(e)) from None
             t = run.value("wall_time_s")
             log(f"study: run {i + 1}/{len(combos)} {run.label}: {run.status}"
                 + (" (reused)" if run.reused else "")
@@ -101,9 +126,12 @@ def run_study(scene: str | Path, varies: Sequence[Vary], out: str | Path, sets: 
             study.runs.append(run)
         _take_declared(study, results, log)
         study.refs = references(study.runs, varies, study.keys)
-        write_csv(study, out / "study.csv")
-        write_plot(study, out / "study.png")
-        write_markdown(study, out / "study.md", "study.png")
+        try:
+            write_csv(study, out / "study.csv")
+            write_plot(study, out / "study.png")
+            write_markdown(study, out / "study.md", "study.png")
+        except LinkRefused as e:
+            raise StudyError(str(e)) from None
         log(f"study: {sum(r.ok for r in study.runs)}/{len(study.runs)} runs succeeded; "
             f"{out / 'study.csv'}, {out / 'study.md'}, {out / 'study.png'}")
     finally:

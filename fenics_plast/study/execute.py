@@ -24,7 +24,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
-from ..output import mark_results_folder
+from ..checkpoint import DIRNAME, remove_own
+from ..out_files import LinkRefused, make_dir, open_write, remove_file, write_atomic
+from ..output import OutputDirError, mark_results_folder, remove_listed, results_folder_scene
 
 
 @dataclass
@@ -79,11 +81,16 @@ def run_command(scene: Path, sets: Sequence[str], out_dir: Path, np_ranks: int =
 
 
 def execute(run: Run, scene: Path, sets: list[str], run_dir: Path, np_ranks: int = 1,
-            timeout: float | None = None, reuse: bool = False, trust_mesh_script: bool = False) -> Run:
+            timeout: float | None = None, reuse: bool = False, trust_mesh_script: bool = False,
+            root: Path | None = None) -> Run:
     """Run one combination as a subprocess (or reuse a finished one) and fill ``run``.
 
     ``run_dir`` gets run.log (the process's output), summary.json (written by the run) and
-    study_run.json (the command, exit status and times: what ``reuse`` reads back)."""
+    study_run.json (the command, exit status and times: what ``reuse`` reads back). An earlier run's
+    folder is emptied of what the study and the run wrote there (nothing else, nothing through a link:
+    a link at ``run_dir`` or in it is refused, :class:`~fenics_plast.out_files.LinkRefused`); ``root``:
+    the study's folder (the folders below it are not followed through links)."""
+    root = Path(root) if root is not None else run_dir.parent
     record_path = run_dir / "study_run.json"
     cmd = run_command(scene, sets, run_dir, np_ranks, trust_mesh_script=trust_mesh_script)
     if reuse and record_path.is_file():
@@ -96,13 +103,23 @@ def execute(run: Run, scene: Path, sets: list[str], run_dir: Path, np_ranks: int
             _fill(run, rec["returncode"], rec.get("output_tail", ""), rec.get("process_time_s"), run_dir)
             run.reused = True
             return run
-    if run_dir.exists():
-        shutil.rmtree(run_dir)
-    run_dir.mkdir(parents=True)
+    if os.path.lexists(run_dir):
+        if run_dir.is_symlink() or not run_dir.is_dir():
+            raise LinkRefused(f"{run_dir}: is a symbolic link or not a folder: the study does not write or delete "
+                              f"through it; remove it, or choose another --out")
+        if any(run_dir.iterdir()) and not results_folder_scene(run_dir)[0]:
+            raise OutputDirError(f"{run_dir}: is not a results folder of a study run (no marker): the study does "
+                                 f"not delete it; remove it, or choose another --out")
+        remove_listed(run_dir)              # the earlier run's files (the marker's list), nothing else
+        for name in ("run.log", "study_run.json", "summary.json"):
+            remove_file(run_dir / name, root=root)
+        remove_own(run_dir / DIRNAME)
+    else:
+        make_dir(run_dir, root=root)
     mark_results_folder(run_dir, None)      # the run's folder (run.log goes in first): a results folder
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     t0 = time.perf_counter()
-    with open(run_dir / "run.log", "w", encoding="utf-8") as log:
+    with open_write(run_dir / "run.log", root=root, encoding="utf-8") as log:
         proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
         try:
             rc = proc.wait(timeout=timeout)
@@ -117,13 +134,12 @@ def execute(run: Run, scene: Path, sets: list[str], run_dir: Path, np_ranks: int
     if rc is None:
         run.status, run.reason = "timeout", f"timed out after {timeout:g} s (--timeout)"
         run.process_time_s = elapsed
-        if (run_dir / "summary.json").is_file():      # not expected: the run was killed
-            (run_dir / "summary.json").unlink()
+        remove_file(run_dir / "summary.json", root=root)     # not expected: the run was killed
     else:
         _fill(run, rc, output, elapsed, run_dir)
     record = dict(sets=sets, np=np_ranks, command=cmd, returncode=rc, status=run.status, reason=run.reason,
                   process_time_s=elapsed, output_tail=output[-4000:])
-    record_path.write_text(json.dumps(record, indent=1))
+    write_atomic(record_path, json.dumps(record, indent=1), root=root, fsync=False)
     return run
 
 

@@ -37,8 +37,9 @@ def _csv_cell(v) -> Any:
 
 
 def write_csv(study: Study, path: Path) -> Path:
+    from ..out_files import open_write
     header, rows = study.rows()
-    with open(path, "w", newline="", encoding="utf-8") as f:
+    with open_write(path, newline="", encoding="utf-8") as f:
         w = csv.writer(f)
         w.writerow(header)
         for row in rows:
@@ -184,7 +185,8 @@ def write_markdown(study: Study, path: Path, plot_name: str | None = "study.png"
     L += _cheapest(study)
     if plot_name:
         L += [f"![relative error against wall time]({plot_name})", ""]
-    path.write_text("\n".join(L), encoding="utf-8")
+    from ..out_files import write_atomic
+    write_atomic(path, "\n".join(L), fsync=False)
     return path
 
 
@@ -228,6 +230,10 @@ def write_plot(study: Study, path: Path) -> Path | None:
     else:
         ax.text(0.5, 0.5, "no nonzero error to draw", transform=ax.transAxes, ha="center")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    from ..out_files import open_write
+    try:
+        with open_write(path, mode="wb") as f:
+            fig.savefig(f, dpi=110, format="png")
+    finally:
+        plt.close(fig)
     return path
