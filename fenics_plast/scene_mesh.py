@@ -122,11 +122,12 @@ def check_mesh_parameters(problem, comm, gdim, trust_mesh_script=False):
     lies within the Min and Max its .geo's DefineConstant gives, or is > 0 where it gives no Min and at
     most :data:`MAX_PARAMETER` where it gives no Max (cell counts: integers >= 1, checked by
     validation); and the mesh the parameters and mesh.refine ask for
-    (:func:`fenics_plast.meshing.estimate_cells`, on the screened file) fits in the machine's memory at
+    (:func:`fenics_plast.mesh_size.estimate_cells`, on the screened file) fits in the machine's memory at
     :data:`MIN_BYTES_PER_CELL`."""
     from fenics_plast.geo_screen import GeoScreenError, mesh_file_kind, screen
-    from fenics_plast.meshing import (estimate_cells, estimate_cells_from_sizes, geo_parameters, machine_memory,
-                                      refined)
+    from fenics_plast.gmsh_child import machine_memory
+    from fenics_plast.mesh_size import estimate_cells, estimate_cells_from_sizes, geo_parameters
+    from fenics_plast.meshing import refined
     from fenics_plast.schema import is_cell_count
     m, where, path = problem.mesh, problem.path, problem.mesh_file
     opened, kind = mesh_file_kind(path)             # links resolved: Gmsh runs the file screened (issue 34)

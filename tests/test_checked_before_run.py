@@ -314,7 +314,7 @@ def test_history_rows_capped_at_one_per_step(tmp_path):
 
 def test_geo_parameters_read_from_the_text(tmp_path):
     """The DefineConstant defaults, Min and Max as the parameter checks read them (comments skipped)."""
-    from fenics_plast.meshing import geo_parameters
+    from fenics_plast.mesh_size import geo_parameters
     f = tmp_path / "p.geo"
     f.write_text(textwrap.dedent("""\
         // x = {9, Name "Parameters/commented"}
@@ -331,7 +331,7 @@ def test_geo_parameters_read_from_the_text(tmp_path):
 def test_geo_parameters_read_through_includes(tmp_path):
     """A parameter defined in an Include'd file (where the Include stands; the first definition counts, as
     in Gmsh) has its default, Min and Max read too; an Include cycle ends."""
-    from fenics_plast.meshing import geo_parameters
+    from fenics_plast.mesh_size import geo_parameters
     (tmp_path / "sub").mkdir()
     (tmp_path / "sub" / "params.geo").write_text(
         'DefineConstant[ t = {2, Min 0.5, Max 4, Name "Parameters/thickness"},\n'

@@ -283,8 +283,9 @@ def test_gmsh_dying_is_a_message_naming_mesh_file(tmp_path, monkeypatch):
 
 def test_gmsh_out_of_memory_is_a_message(tmp_path, monkeypatch):
     """The child's memory is capped: Gmsh running out of it is a MeshError, not the machine's memory."""
+    import fenics_plast.gmsh_child as gmsh_child
     import fenics_plast.meshing as meshing
-    monkeypatch.setattr(meshing, "CHILD_MEMORY_SHARE", 1e-4 * 2**30 / (meshing.machine_memory() or 2**30))
+    monkeypatch.setattr(gmsh_child, "CHILD_MEMORY_SHARE", 1e-4 * 2**30 / (gmsh_child.machine_memory() or 2**30))
     geo = tmp_path / "square.geo"
     geo.write_text(SQUARE % "Mesh.MeshSizeMax = 0.01;")
     with pytest.raises(meshing.MeshError, match=r"Gmsh died \(out of memory: its limit .* while meshing square.geo"):
