@@ -117,7 +117,10 @@ class RunLock:
         deadline = time.monotonic() + max(float(wait_s), 0.0)
         warning, waited = None, False
         try:
-            tmp.write_text(json.dumps(me) + "\n", encoding="utf-8")
+            tmp.unlink(missing_ok=True)             # (a crashed run's, or a link: never written through)
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
+            with os.fdopen(fd, "w", encoding="utf-8") as f:
+                f.write(json.dumps(me) + "\n")
             takeovers = 0
             while True:
                 try:

@@ -128,3 +128,15 @@ def test_waiting_ends_in_a_refusal(tmp_path):
     finally:
         holder.kill()
         holder.wait()
+
+
+def test_a_link_at_the_locks_temporary_name_is_not_written_through(tmp_path):
+    outside = tmp_path / "outside.txt"
+    outside.write_text("the user's")
+    folder = tmp_path / "out"
+    folder.mkdir()
+    (folder / f"{LOCK}.tmp{os.getpid()}").symlink_to(outside)
+    lock = RunLock.acquire(folder)
+    assert outside.read_text() == "the user's" and json.loads((folder / LOCK).read_text())["pid"] == os.getpid()
+    assert not (folder / f"{LOCK}.tmp{os.getpid()}").exists()
+    lock.release()
