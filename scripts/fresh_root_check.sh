@@ -32,7 +32,8 @@
 # Needs root (debootstrap, mount, chroot); apt-installs debootstrap on the host if it is missing.
 # Environment: FRESH_ROOT_CACHE, FRESH_ROOT_TMP (where the root is made, default /var/tmp),
 # FRESH_ROOT_MIRROR and FRESH_ROOT_SECURITY_MIRROR (instead of the host's), FRESH_ROOT_KEEP=1 (keep
-# the root), FRESH_ROOT_SLOW=1 (also the slow tests), FRESH_ROOT_DRY_RUN=1 (print the plan: suite,
+# the root), FRESH_ROOT_SLOW=1 (also the slow tests), FRESH_ROOT_EXTRA=COMMAND (one more step in the root
+# after the tests, in the checkout, e.g. a test run many times), FRESH_ROOT_DRY_RUN=1 (print the plan: suite,
 # mirrors, the Dockerfile's steps; build nothing, needs no root).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -420,6 +421,10 @@ tail -n 3 "$logs/$((${#step_names[@]}))-make_test.log" | sed 's/^/    | /'
 if [ "${FRESH_ROOT_SLOW:-0}" = 1 ]; then
     step "slow tests" in_root ".venv/bin/python -m pytest -q -m slow tests"
     tail -n 3 "$logs/$((${#step_names[@]}))-slow_tests.log" | sed 's/^/    | /'
+fi
+if [ -n "${FRESH_ROOT_EXTRA:-}" ]; then
+    step "extra: $FRESH_ROOT_EXTRA" in_root "$FRESH_ROOT_EXTRA"
+    tail -n 12 "$logs/$((${#step_names[@]}))-"*extra*.log | sed 's/^/    | /'
 fi
 report
 say "passed: the README's two commands work on a fresh minimal $suite root"
