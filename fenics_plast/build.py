@@ -303,14 +303,17 @@ def facet_measures(mesh, facet_tags, tag, axisymmetric=False):
     fdim = mesh.topology.dim - 1
     facets = facet_tags.find(tag)
     facets = facets[facets < mesh.topology.index_map(fdim).size_local]
-    x = mesh.geometry.x[dc.entity_nodes(mesh, fdim, facets)] if len(facets) else np.zeros((0, 2, 3))
-    if fdim == 1:
-        size = np.linalg.norm(x[:, 1] - x[:, 0], axis=1)
-        weighted = size * 2 * np.pi * 0.5 * (x[:, 0, 0] + x[:, 1, 0]) if axisymmetric else size
-    else:       # triangles; quadrilaterals (vertices in tensor order: the diagonals 0-3 and 1-2)
-        a, b = ((x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]) if x.shape[1] == 3 else (x[:, 3] - x[:, 0], x[:, 2] - x[:, 1]))
-        size = weighted = 0.5 * np.linalg.norm(np.cross(a, b), axis=1)
-    total = np.array([float(np.sum(weighted)), float(np.sum(size))])
+    total = np.zeros(2)
+    if len(facets):             # (a rank without such facets adds nothing, and takes part in the sum)
+        x = mesh.geometry.x[dc.entity_nodes(mesh, fdim, facets)]
+        if fdim == 1:
+            size = np.linalg.norm(x[:, 1] - x[:, 0], axis=1)
+            weighted = size * 2 * np.pi * 0.5 * (x[:, 0, 0] + x[:, 1, 0]) if axisymmetric else size
+        else:       # triangles; quadrilaterals (vertices in tensor order: the diagonals 0-3 and 1-2)
+            a, b = ((x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]) if x.shape[1] == 3 else
+                    (x[:, 3] - x[:, 0], x[:, 2] - x[:, 1]))
+            size = weighted = 0.5 * np.linalg.norm(np.cross(a, b), axis=1)
+        total = np.array([float(np.sum(weighted)), float(np.sum(size))])
     return tuple(mesh.comm.allreduce(total, op=MPI.SUM)) if mesh.comm.size > 1 else tuple(total)
 
 
