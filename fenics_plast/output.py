@@ -316,8 +316,8 @@ def run_file_names(problem) -> list[str]:
     """The names a run of ``problem`` writes in its folder (:data:`RUN_FILES`, ``<plot>.png``,
     ``<output>.csv``), for the up-front check of links (:func:`check_out_dir`)."""
     names = list(RUN_FILES)
-    names += [f"{n}.png" for n in getattr(problem, "plots", {}) or {}]
-    names += [f"{n}.csv" for n in getattr(problem, "outputs", {}) or {}]
+    names += [f"{n}.png" for n in problem.plots]
+    names += [f"{n}.csv" for n in problem.outputs]
     return names
 
 
