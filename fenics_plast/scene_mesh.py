@@ -315,28 +315,9 @@ def check_material_regions(problem, cell_tags, groups, mesh):
                      f"one (add the region to a material's regions)")
 
 
-def _straight_normal(V, facet_tags, tag):
-    """The coordinate constant over the group's nodes (0: x, 1: y, 2: z), or None when none is (the group
-    is not straight, or is empty) (collective)."""
-    gdim = V.mesh.geometry.dim
-    nodes = fem.locate_dofs_topological(V, V.mesh.topology.dim - 1, facet_tags.find(tag))
-    X = V.tabulate_dof_coordinates()[nodes, :gdim]
-    comm = V.mesh.comm
-    lo = X.min(axis=0) if len(X) else np.full(gdim, np.inf)
-    hi = X.max(axis=0) if len(X) else np.full(gdim, -np.inf)
-    comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)
-    comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
-    span = hi - lo
-    if not np.isfinite(span).all():
-        return None
-    scale = max(span.max(), 1e-300)
-    return next((c for c in range(gdim) if span[c] <= 1e-9 * scale), None)
-
-
-def symmetry_component(V, facet_tags, tag, where):
-    """The component normal to a symmetry group: the coordinate that is constant over its nodes (0: x,
-    1: y, 2: z in 3-D). The group must lie in a line (2-D) or plane (3-D) normal to an axis, e.g. x = 0
-    or z = 5 (collective; SceneError naming ``where`` otherwise)."""
+def group_spans(V, facet_tags, tag):
+    """The extent of a facet group's nodes along each axis [mm] (gdim,), over all ranks (collective;
+    -inf for an empty group)."""
     gdim = V.mesh.geometry.dim
     nodes = fem.locate_dofs_topological(V, V.mesh.topology.dim - 1, facet_tags.find(tag))
     X = V.tabulate_dof_coordinates()[nodes, :gdim]
@@ -345,11 +326,27 @@ def symmetry_component(V, facet_tags, tag, where):
     hi = X.max(axis=0) if len(X) else np.full(gdim, -np.inf)
     comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)        # buffer form: element-wise on arrays
     comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
-    span = hi - lo
+    return hi - lo
+
+
+def _straight_normal(V, facet_tags, tag):
+    """The coordinate constant over the group's nodes (0: x, 1: y, 2: z), or None when none is (the group
+    is not straight, or is empty) (collective)."""
+    span = group_spans(V, facet_tags, tag)
+    if not np.isfinite(span).all():
+        return None
     scale = max(span.max(), 1e-300)
-    for c in range(gdim):
-        if span[c] <= 1e-9 * scale:
-            return c
+    return next((c for c in range(len(span)) if span[c] <= 1e-9 * scale), None)
+
+
+def symmetry_component(V, facet_tags, tag, where):
+    """The component normal to a symmetry group: the coordinate that is constant over its nodes (0: x,
+    1: y, 2: z in 3-D). The group must lie in a line (2-D) or plane (3-D) normal to an axis, e.g. x = 0
+    or z = 5 (collective; SceneError naming ``where`` otherwise)."""
+    c = _straight_normal(V, facet_tags, tag)
+    if c is not None:
+        return c
+    span, gdim = group_spans(V, facet_tags, tag), V.mesh.geometry.dim
     spans = ", ".join(f"{span[c]:.4g} mm in {'xyz'[c]}" for c in range(gdim))
     shape = "a straight group normal to x or y" if gdim == 2 else "a plane group normal to x, y or z"
     raise SceneError(f"{where}: type = 'symmetry' needs {shape}; this one spans {spans}")
