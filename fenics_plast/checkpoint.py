@@ -328,19 +328,6 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"checkpoint state value of type {type(obj).__name__} is not JSON-able: {obj!r}")
 
 
-def _fsync_dir(path: Path) -> None:
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
-
-
 def write_atomic(path: str | os.PathLike, data: bytes) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same directory: write, fsync,
     ``os.replace`` (atomic on POSIX), fsync of the directory. A crash leaves the old file or the new
