@@ -1,9 +1,9 @@
 """Meshed rigid tools: a physical curve (2-D) or surface (3-D) of a Gmsh file, moved rigidly along a path.
 
 A tool no analytic shape makes (a die from CAD, a square punch): ``[tools.<name>] shape = "mesh"``, with
-``file`` (a Gmsh ``.geo``, screened and meshed here, or a ``.msh``) and ``group`` (the physical curve or
-surface that is the tool's working surface; line elements in 2-D, triangles or quadrangles in 3-D, the
-quadrangles split in two). The body lies on the side the facets' normals point to: left of the curve's
+``file`` (a Gmsh ``.geo``, meshed here, or a ``.msh``, either screened like the body's mesh file) and
+``group`` (the physical curve or surface that is the tool's working surface; line elements in 2-D,
+triangles or quadrangles in 3-D, the quadrangles split in two). The body lies on the side the facets' normals point to: left of the curve's
 direction in 2-D, right-handed about the vertex order in 3-D, every facet oriented like its neighbours
 (:func:`fenics_plast.solvers.surface_gaps.build_surface`); ``flip = true`` takes the other side.
 
@@ -29,7 +29,7 @@ SHAPE = "mesh"
 #: its scene keys (``tools.<name>.*``; the schema adds ``when = {shape: mesh}``)
 KEYS = {
     "file": Key("str", REQUIRED, "Gmsh .geo or .msh file holding the tool's surface, relative to the scene "
-                "file (a .geo is screened like the body's, then meshed)."),
+                "file, suffix in any case (screened like the body's mesh file, links resolved; a .geo is then meshed)."),
     "group": Key("str", REQUIRED, "The physical curve (2-D) or physical surface (3-D) of `file` that is the "
                  "tool's surface (line elements; triangles or quadrangles)."),
     "flip": Key("bool", False, "The body lies on the side the surface's normals point to (left of the "
