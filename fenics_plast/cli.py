@@ -283,7 +283,7 @@ def read_deformation_table(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     bad = np.nonzero(~np.all(np.isfinite(data), axis=1))[0]
     if bad.size:
         col = header[int(np.nonzero(~np.isfinite(data[bad[0]]))[0][0])]
-        raise ValueError(f"{path}: data row {int(bad[0]) + 1}: {col} = {data[bad[0]][header.index(col)]!r} is not a "
+        raise ValueError(f"{path}: data row {int(bad[0]) + 1}: {col} = {float(data[bad[0]][header.index(col)])!r} is not a "
                          f"finite number")
     idx = {h: i for i, h in enumerate(header)}
     t = data[:, idx["t"]]

@@ -51,12 +51,28 @@ def _memory_cap() -> int | None:
     return _mapped_bytes() + int(CHILD_MEMORY_SHARE * memory)
 
 
+def _reached(cap: int | None) -> bool:
+    """Whether this process's peak address space (/proc/self/status VmPeak) came within half of ``cap``
+    [bytes]: an allocation that failed then failed for the cap (the allocations that fail grow by
+    doubling, so none asks for more than what is mapped)."""
+    if cap is None:
+        return False
+    try:
+        with open("/proc/self/status") as f:
+            peak = next(int(line.split()[1]) * 1024 for line in f if line.startswith("VmPeak:"))
+    except (OSError, ValueError, IndexError, StopIteration):
+        return False
+    return peak > 0.5 * cap
+
+
 def in_child(what: str, fn, *args):
     """``fn(*args)`` run in a forked child process whose address space is capped (:func:`_memory_cap`), so
     that Gmsh dying (a signal, an abort, running out of memory) ends the child, not the run; returns
     ``fn``'s (picklable) result. A :class:`MeshError` in the child is raised again here; any other
     exception, and the child dying, raise MeshError naming ``what`` (the file being meshed):
-    "Gmsh died (signal 11, SIGSEGV) while meshing <what>", "... (out of memory: ...)". Call it on one
+    "Gmsh died (signal 11, SIGSEGV) while meshing <what>", "Gmsh ran out of memory (...) while meshing
+    <what>" (a signal with the memory near the cap, a MemoryError, or an error once the child's peak address
+    space came within half of the cap: :func:`_reached`). Call it on one
     rank only (it uses no MPI); the child leaves with ``os._exit`` (no MPI, no atexit, no flush)."""
     import pickle
     import resource
@@ -83,12 +99,15 @@ def in_child(what: str, fn, *args):
                                                         min(cap, hard), hard))
             try:
                 out = ("ok", fn(*args))
-            except MeshError as e:
-                out = ("error", str(e))
             except MemoryError:
                 out = ("memory", None)
             except BaseException as e:  # noqa: BLE001 - reported by the parent
-                out = ("error", f"Gmsh cannot mesh {what}: {type(e).__name__}: {e}")
+                if _reached(cap):       # (Gmsh 4.13 turns a failed allocation into an empty error)
+                    out = ("memory", None)
+                elif isinstance(e, MeshError):
+                    out = ("error", str(e))
+                else:
+                    out = ("error", f"Gmsh cannot mesh {what}: {type(e).__name__}: {e}")
             data = pickle.dumps(out)
             with os.fdopen(w, "wb") as f:
                 f.write(data)
@@ -115,8 +134,8 @@ def in_child(what: str, fn, *args):
         if kind == "ok":
             return value
         if kind == "memory":
-            raise MeshError(f"Gmsh ran out of memory while meshing {what} ({limit}; it had taken "
-                            f"{peak / 2**30:.3g} GiB): the mesh is too fine for this machine")
+            raise MeshError(f"Gmsh ran out of memory ({limit}, it had taken {peak / 2**30:.3g} GiB) while "
+                            f"meshing {what}: the mesh is too fine for this machine")
         raise MeshError(value)
     memory = machine_memory() or 0
     oom = (any("bad_alloc" in line or "emory" in line for line in said)
@@ -128,9 +147,10 @@ def in_child(what: str, fn, *args):
             name = signal.Signals(sig).name
         except ValueError:
             name = "unknown signal"
-        why = (f"out of memory: {limit}, it had taken {peak / 2**30:.3g} GiB" if oom else
-               f"signal {sig}, {name}")
-        raise MeshError(f"Gmsh died ({why}) while meshing {what}{last}")
+        if oom:
+            raise MeshError(f"Gmsh ran out of memory ({limit}, it had taken {peak / 2**30:.3g} GiB; it died of "
+                            f"signal {sig}, {name}) while meshing {what}: the mesh is too fine for this machine")
+        raise MeshError(f"Gmsh died (signal {sig}, {name}) while meshing {what}{last}")
     code = os.WEXITSTATUS(status) if os.WIFEXITED(status) else status
     raise MeshError(f"Gmsh ended (exit status {code}{', out of memory' if oom else ''}) while meshing {what} "
                     f"without a mesh (an Exit command in the file ends the process that reads it)")
