@@ -3,17 +3,18 @@
 A tool no analytic shape makes (a die from CAD, a square punch): ``[tools.<name>] shape = "mesh"``, with
 ``file`` (a Gmsh ``.geo``, meshed here, or a ``.msh``, either screened like the body's mesh file) and
 ``group`` (the physical curve or surface that is the tool's working surface; line elements in 2-D,
-triangles or quadrangles in 3-D, the quadrangles split in two). The body lies on the side the facets' normals point to: left of the curve's
-direction in 2-D, right-handed about the vertex order in 3-D, every facet oriented like its neighbours
-(:func:`fenics_plast.solvers.surface_gaps.build_surface`); ``flip = true`` takes the other side.
+triangles or quadrangles in 3-D, the quadrangles split in two). The body lies on the side the facets'
+normals point to: left of the curve's direction in 2-D, right-handed about the vertex order in 3-D, every
+facet oriented like its neighbours (:func:`fenics_plast.solvers.surface_gaps.build_surface`);
+``flip = true`` takes the other side.
 
 A :class:`MeshedTool` answers what the solvers ask of a tool: ``gap_np(x, t)`` (the signed gap and normal
 of :func:`~fenics_plast.solvers.surface_gaps.surface_gaps`, the surface translated by the path) and
 ``translation(t)``. The explicit contact takes its gaps as given (a tool with a ``gap_np`` of its own:
 :mod:`fenics_plast.solvers.explicit_contact`); the static contact forms, which evaluate gaps at the nodes,
 take them, and the normal's derivative, as nodal functions computed at every Newton state and linearised
-about it (:meth:`fenics_plast.contact.ContactPair._nodal_gap`, ``has_ufl_gap = False``). Friction and energy as
-for an analytic tool. Units mm.
+about it (:meth:`fenics_plast.contact.ContactPair._nodal_gap`, ``has_ufl_gap = False``). Friction and
+energy as for an analytic tool. Units mm.
 """
 from __future__ import annotations
 
@@ -29,7 +30,8 @@ SHAPE = "mesh"
 #: its scene keys (``tools.<name>.*``; the schema adds ``when = {shape: mesh}``)
 KEYS = {
     "file": Key("str", REQUIRED, "Gmsh .geo or .msh file holding the tool's surface, relative to the scene "
-                "file, suffix in any case (screened like the body's mesh file, links resolved; a .geo is then meshed)."),
+                "file, suffix in any case (screened like the body's mesh file, links resolved; a .geo is then "
+                "meshed)."),
     "group": Key("str", REQUIRED, "The physical curve (2-D) or physical surface (3-D) of `file` that is the "
                  "tool's surface (line elements; triangles or quadrangles)."),
     "flip": Key("bool", False, "The body lies on the side the surface's normals point to (left of the "
