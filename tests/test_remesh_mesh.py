@@ -17,16 +17,14 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import gmsh
 import numpy as np
 import pytest
-from dolfinx.io import gmshio
 from mpi4py import MPI
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 from fenics_plast.dolfinx_compat import entity_nodes  # noqa: E402
-from fenics_plast.gmsh_session import gmsh_session  # noqa: E402
+from fenics_plast.meshing import mesh_from_file  # noqa: E402
 from fenics_plast.remeshing.new_mesh import RemeshError, mesh_outline, remesh  # noqa: E402
 from fenics_plast.remeshing.outline import crossings, group_lengths, outline  # noqa: E402
 from fenics_plast.dolfinx_compat import vector_space  # noqa: E402
@@ -40,25 +38,10 @@ BAR = {"cells_radial": 10, "cells_axial": 40}
 H = 0.5
 
 
-def geo_mesh(path, parameters, comm=COMM):
-    """(mesh, cell_tags, facet_tags, groups) of a .geo with its ONELAB parameters, as
-    fenics_plast.meshing.mesh_from_geo makes them (kept here: the remeshing tests do not depend on
-    the mesh-file screen)."""
-    with gmsh_session():
-        groups = {}
-        if comm.rank == 0:
-            for k, v in parameters.items():
-                gmsh.onelab.setNumber(f"Parameters/{k}", [float(v)])
-            gmsh.open(str(path))
-            gmsh.model.geo.synchronize()
-            gmsh.model.mesh.generate(2)
-            for d, t in gmsh.model.getPhysicalGroups():
-                groups[gmsh.model.getPhysicalName(d, t)] = (d, t)
-        else:
-            gmsh.model.add("m")
-        groups = comm.bcast(groups, root=0)
-        mesh, ct, ft = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=2)
-    return mesh, ct, ft, groups
+def geo_mesh(path, parameters, comm=COMM, used_groups=None):
+    """(mesh, cell_tags, facet_tags, groups) of a .geo with its ONELAB parameters (the package's reader;
+    ``used_groups``: as mesh_from_file's, {} to read groups that share facets)."""
+    return mesh_from_file(comm, path, parameters, used_groups=used_groups)
 
 
 def bent(X):
@@ -296,7 +279,7 @@ def test_a_facet_in_two_groups(tmp_path):
     the same way (``group_facets``), and a second remesh carries them again."""
     geo = (ROOT / "meshes/round_bar.geo").read_text() + 'Physical Curve("side", 15) = {2, 3};\n'
     (tmp_path / "bar2.geo").write_text(geo)
-    mesh, ct, ft, groups = geo_mesh(tmp_path / "bar2.geo", BAR)
+    mesh, ct, ft, groups = geo_mesh(tmp_path / "bar2.geo", BAR, used_groups={})     # (a scene would be refused)
     assert len(ft.find(15)) == 0
     x = bent(mesh.geometry.x)
     given = {n: ft.find(t) for n, (d, t) in groups.items() if d == 1}
