@@ -265,9 +265,10 @@ class ContactPair:
                     tangential_penalty=self.tangential_penalty)
 
 
-def contact_pairs(problem, mesh, facet_tags, groups, material, tools) -> dict[str, ContactPair]:
+def contact_pairs(problem, mesh, facet_tags, groups, material, tools, penalties=None) -> dict[str, ContactPair]:
     """{name: :class:`ContactPair`} of the scene's [contact] pairs, in its order (``tools``: name -> tool,
-    :func:`tools_of`; collective)."""
+    :func:`tools_of`; ``penalties``: {name: penalty [N/mm^3]} in place of the scene's or default one, a
+    remeshed body's, which keeps its first mesh's; collective)."""
     from fenics_plast.tools import contact_length_scale, default_penalty
     from fenics_plast.meshed_tools import MeshedTool, check_tool_size
     out = {}
@@ -283,6 +284,8 @@ def contact_pairs(problem, mesh, facet_tags, groups, material, tools) -> dict[st
         depth = contact_length_scale(mesh, facet_tags, tag)
         default = default_penalty(contact_modulus(material, mesh, facet_tags, tag), depth)
         eps = spec.penalty if spec.penalty is not None else default
+        if penalties is not None:
+            eps = penalties[name]
         master = spec.get("master")
         if master is not None:
             out[name] = ContactPair(name, None, tag, eps, spec.friction, spec.law, spec.tangential_penalty, depth,

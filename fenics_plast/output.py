@@ -297,7 +297,7 @@ STUDY_FILES = ("study.csv", "study.md", "study.png", "runs", "run.log", "study_r
 #: of ``fenics-plast point`` (point_<path>.csv in results/<scene>/) or of a study (compared casefolded)
 RESERVED_NAMES = ("history", "summary", "fields", "final_shape", "checkpoint", "point_uniaxial", "point_shear",
                   "point_table", "study", "study_run", "run", "runs")
-_RESERVED_RE = re.compile(r"^(fields_part\d+)$", re.IGNORECASE)
+_RESERVED_RE = re.compile(r"^(fields_part\d+|fields_remesh\d+)$", re.IGNORECASE)
 
 
 def reserved_name_problem(name: Any) -> str | None:

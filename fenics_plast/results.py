@@ -58,14 +58,17 @@ def _claim(output, *names) -> None:
         claim(*names)
 
 
-def open_fields(problem, output, comm, mesh):
+def open_fields(problem, output, comm, mesh, name="fields"):
+    """The XDMF file of the run's fields on ``mesh`` (None when output.xdmf is off), ``<name>.xdmf``:
+    fields.xdmf, or fields_remesh<k>.xdmf for the k-th new mesh of a remeshed run (collective)."""
     if not problem.output.xdmf:
         return None
     failed = None
+    path = output.xdmf_path.with_name(f"{name}.xdmf")
     if comm.rank == 0:          # HDF5 follows links and truncates in place: no link, a new file (out_files)
         from fenics_plast.out_files import remove_file
-        _claim(output, output.xdmf_path.name, output.xdmf_path.with_suffix(".h5").name)
-        for p in (output.xdmf_path, output.xdmf_path.with_suffix(".h5")):
+        _claim(output, path.name, path.with_suffix(".h5").name)
+        for p in (path, path.with_suffix(".h5")):
             if os.path.lexists(p) and not (os.path.isfile(p) and not os.path.islink(p)):
                 failed = (f"{p}: is a symbolic link (or not a regular file): fenics-plast does not write through "
                           f"it; remove it, or choose another output folder")
@@ -75,7 +78,7 @@ def open_fields(problem, output, comm, mesh):
     if failed:
         from fenics_plast.out_files import LinkRefused
         raise LinkRefused(failed)
-    xf = io.XDMFFile(comm, str(output.xdmf_path), "w")
+    xf = io.XDMFFile(comm, str(path), "w")
     xf.write_mesh(mesh)
     return xf
 

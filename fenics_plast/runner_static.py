@@ -35,14 +35,20 @@ def ramp_end(problem, b, value) -> float | None:
     return load_steps(problem)[0][1]
 
 
-def _prescribed(value, t_ramp):
+def _prescribed(value, t_ramp, since=0.0):
     """value(X (3, n), t) for StaticSolver.add_prescribed from a scene value (t = pseudo-time), ramped
-    up to ``t_ramp`` (None: as written)."""
+    up to ``t_ramp`` (None: as written); ``since`` > 0: the displacement from its value at t = since
+    (a mesh made at that load, whose reference is the deformed shape; the value does not depend on x, y,
+    z then: validation's rule for [remeshing])."""
     def factor(t):
         return 1.0 if t_ramp is None else min(float(t) / t_ramp, 1.0)
     if value.constant is not None:
         c = float(value.constant)
-        return lambda X, t: np.full(X.shape[1], c * factor(t))
+        return lambda X, t: np.full(X.shape[1], c * (factor(t) - factor(since)))
+    if since > 0.0:
+        def at(t):
+            return float(value.evaluate(t=t)) * factor(t)
+        return lambda X, t: np.full(X.shape[1], at(t) - at(since))
     return lambda X, t: (np.asarray(value.evaluate(x=X[0], y=X[1], z=X[2], t=t), dtype=float) * factor(t)
                          * np.ones(X.shape[1]))
 
@@ -52,10 +58,11 @@ def _ramped_ufl(expr, t, t_ramp):
     return expr if t_ramp is None else expr * ufl.min_value(t / t_ramp, 1.0)
 
 
-def apply_boundary(problem, s, ft, conditions):
+def apply_boundary(problem, s, ft, conditions, since=0.0):
     """Dirichlet conditions and dead loads of [boundary] (``conditions``: :func:`fenics_plast.build.boundaries`);
     returns {group: set of constrained components}. A value that does not depend on t is ramped over
-    the first load step unless its amplitude is "step"."""
+    the first load step unless its amplitude is "step". ``since``: the load at which the mesh was made
+    (prescribed displacements count from there)."""
     constrained: dict[str, set] = {}
     X = ufl.SpatialCoordinate(s.mesh)
     w = s.kin.weight
@@ -68,7 +75,7 @@ def apply_boundary(problem, s, ft, conditions):
                 s.add_dirichlet(c, ft, tag, 0.0)
         elif b.type == "displacement":
             for c, val in zip(comps, b.values):
-                s.add_prescribed(c, ft, tag, _prescribed(val, ramp_end(problem, b.spec, val)))
+                s.add_prescribed(c, ft, tag, _prescribed(val, ramp_end(problem, b.spec, val), since))
         elif b.type in ("traction", "pressure"):
             ds = ufl.Measure("ds", domain=s.mesh, subdomain_data=ft)(tag)
             t_ufl = s.load
@@ -150,13 +157,16 @@ def load_steps(problem) -> list[tuple[str, float, int, float]]:
             for n, st in problem.steps.items()] or [("load", 1.0, ana.increments, ana.max_increment)]
 
 
-def build_static(problem, comm, mesh_data=None, log=None, progress=None) -> SimpleNamespace:
+def build_static(problem, comm, mesh_data=None, log=None, progress=None, since=0.0, penalties=None
+                 ) -> SimpleNamespace:
     """The static solver of ``problem`` with its boundary conditions, loads and contact pairs, set
     up and ready to ``run``: a namespace of ``solver``, ``material``, ``tools``, ``contact`` (the
     contact set or None), ``pairs``, ``contact_pairs`` (name -> :class:`fenics_plast.build.ContactPair`:
     depth, default penalty), ``reactions`` ((group, component) -> dofs), ``body``
     (:class:`Body`, on the collapsed displacement space), ``positions()`` (current node positions),
-    mesh, cell_tags, facet_tags, groups. ``log``, ``progress``: as for :class:`StaticSolver`."""
+    mesh, cell_tags, facet_tags, groups. ``log``, ``progress``: as for :class:`StaticSolver`. A mesh made
+    by remeshing at load ``since``: prescribed displacements count from there, and the contact pairs keep
+    the first mesh's ``penalties`` ({pair: N/mm^3}: a default penalty is of the first mesh's cells)."""
     mesh, ct, ft, groups = mesh_data if mesh_data is not None else read_mesh(problem, comm)
     ana = problem.analysis
     material, _ = body_material(problem, ct, groups, mesh.topology.index_map(mesh.topology.dim).size_local)
@@ -167,9 +177,9 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None) -> Simp
                 jacobian_rate=ana.jacobian_rate, predictor=ana.predictor)
     s = StaticSolver(kin, material, element=problem.mesh.element, log=log, progress=progress, **opts)
     Vc, vmap = s.displacement_space()
-    constrained = apply_boundary(problem, s, ft, boundaries(problem, Vc, ft, groups))
+    constrained = apply_boundary(problem, s, ft, boundaries(problem, Vc, ft, groups), since)
     tools = tools_of(problem, comm)
-    specs = contact_pairs(problem, mesh, ft, groups, material, tools)
+    specs = contact_pairs(problem, mesh, ft, groups, material, tools, penalties)
     contact, pairs = add_contact(s, ft, specs)
     s.setup()
     reactions = reaction_dofs(problem, s, ft, groups, constrained)
@@ -195,93 +205,225 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None) -> Simp
                            facet_tags=ft, groups=groups)
 
 
+def remeshed(problem, comm, b, remesher, reason, quantities, log=None, progress=None) -> SimpleNamespace:
+    """The run ``b`` (:func:`build_static`'s, at a converged load t) on a new mesh of its deformed outline:
+    the quadrature state transferred, the solver built anew (prescribed displacements counted from t,
+    the contact pairs' penalties kept, their stick points reset: friction builds up again from the next
+    increment's slip), equilibrium restored at the same load (one Newton solve, no load change) and the
+    jump of the one-column outputs across the remesh recorded (``quantities``: the old mesh's).
+    Returns the new build with ``u_before`` (the displacement from the first mesh's reference at its
+    nodes, so that the outputs keep measuring from there) and ``group_facets``. Collective; RunError
+    when equilibrium is not found."""
+    from dolfinx import fem
+    from fenics_plast.remeshing.quality import deformed_nodes
+    from fenics_plast.remeshing.remesher import timed
+    s = b.solver
+    t = s.lam_converged
+    u = s.displacement_function()
+    x = deformed_nodes(u)
+    cells = b.mesh.topology.index_map(b.mesh.topology.dim).size_global
+    rec = remesher.start(t, reason, cells, remesher.quality(b.mesh, x))
+    before = _one_column_values(quantities, t)
+    clock = timed()
+    fits = {spec.group: _tool_gap(b.tools[spec.tool], t) for spec in problem.contact.values() if spec.get("tool")}
+    new = remesher.new_mesh(b.mesh, b.cell_tags, b.facet_tags, b.groups, x, getattr(b, "group_facets", None),
+                            fits=fits)
+    rec.mesh_s = clock.lap()
+    state, rec.transfer, transfer = remesher.transfer(b.mesh, x, s.qmap.degree, s.qmap.state(), new[0])
+    total = fem.Function(u.function_space)
+    total.x.array[:] = u.x.array + b.u_before
+    rec.transfer_s = clock.lap()
+    nb = build_static(problem, comm, tuple(new), log=log, progress=progress, since=t,
+                      penalties={n: p.penalty for n, p in b.pairs.items()})
+    new_total = fem.Function(nb.Vc)
+    transfer.nodal_function(total, new_total)
+    nb.u_before = new_total.x.array.copy()
+    nb.body.X = nb.body.X - nb.u_before.reshape(nb.body.X.shape)
+    nb.group_facets = new.group_facets
+    s2 = nb.solver
+    s2.qmap.set_state(state)
+    for k in ("increments", "cutbacks", "linesearch_retries", "total_iterations", "total_iterations_failed",
+              "jacobians", "force_scale", "roundoff_floor"):
+        setattr(s2, k, getattr(s, k))
+    for k, v in s.times.items():
+        s2.times[k] = s2.times.get(k, 0.0) + v
+    s2.lam_converged = t
+    rec.rebuild_s = clock.lap()
+    its_before = s2.total_iterations
+    ok, its, why = s2.solve_increment(t)
+    if not ok:          # as the load stepping does: the same solve once more with the other line search
+        other = "bt" if s2.options["linesearch"] == "basic" else "basic"
+        s2.log(f"  remesh {rec.number}: retry the equilibrium with line search {other} ({why})")
+        s2.set_linesearch(other)
+        try:
+            ok, its, why = s2.solve_increment(t)
+        finally:
+            s2.set_linesearch(s2.options["linesearch"])
+    if not ok:
+        raise RunError(f"no equilibrium on the new mesh of remesh {rec.number} at t = {t:.6g} ({reason}): {why}, "
+                       f"|R| = {', '.join(f'{n:.3e}' for n in s2.norms[:4] + s2.norms[-3:])}")
+    s2.commit()
+    if nb.contact is not None:
+        nb.contact.commit()
+    rec.equilibrium_s = clock.lap()
+    rec.equilibrium_iterations = s2.total_iterations - its_before
+    rec.new_cells = nb.mesh.topology.index_map(nb.mesh.topology.dim).size_global
+    q = remesher.quality(nb.mesh, None)
+    rec.new_quality = remesher.fresh = (q.min_scaled_jacobian, q.max_angle_deg)
+    s.close()
+    return nb, rec, before
+
+
+def _tool_gap(tool, t):
+    """The gap function of ``tool`` (a :class:`fenics_plast.tools.Tool` or meshed tool) at load t for
+    :func:`fenics_plast.remeshing.new_mesh.fitted_chain`: points (k, 2) [mm] -> (gap (k,), normal (k, 2))."""
+    return lambda x: tool.gap_np(x, t)
+
+
+def _one_column_values(quantities, t) -> dict:
+    """{output name: value} of the one-column outputs (not expressions, not profiles) at ``t``."""
+    from fenics_plast.quantities.registry import KINDS
+    out = {}
+    for name, o in quantities.outputs.items():
+        if o.quantity == "expression" or getattr(KINDS[o.quantity], "PROFILE", False) or \
+                len(quantities.columns[name]) != 1:
+            continue
+        out[name] = float(quantities.value(name, o, t, {})[0])
+    return out
+
+
 def run_static(problem, output, comm, mesh_data=None) -> dict:
     t_setup = time.perf_counter()
     steps = load_steps(problem)
     t_end = steps[-1][1]
+    progress = output.progress(t_end, problem.name, what="t")
     if isinstance(mesh_data, SimpleNamespace):      # built by runner.prepare (before anything was written)
         b, t_setup = mesh_data, t_setup - mesh_data.setup_s
-        b.solver.log_to, b.solver.progress = output.log, output.progress(t_end, problem.name, what="t")
+        b.solver.log_to, b.solver.progress = output.log, progress
     else:
-        b = build_static(problem, comm, mesh_data, log=output.log,
-                         progress=output.progress(t_end, problem.name, what="t"))
-    s, contact, pairs, mesh, positions, Vc = b.solver, b.contact, b.pairs, b.mesh, b.positions, b.Vc
+        b = build_static(problem, comm, mesh_data, log=output.log, progress=progress)
+    b.u_before = 0.0
     ana = problem.analysis
-    quantities = Quantities(problem.outputs, b.body, b.facet_tags, b.groups, b.reactions)
-    cells = mesh.topology.index_map(mesh.topology.dim).size_global
-    output.log(f"{problem.name}: {cells} cells, {s.dofs} dofs, element {problem.mesh.element}, "
-               f"linear solver {s.linear_solver_text}, "
+    remesher = None
+    if problem.remeshing is not None:
+        from fenics_plast.remeshing.remesher import Remesher
+        remesher = Remesher(problem.remeshing, problem.mesh.geometry == "axisymmetric")
+    run = SimpleNamespace(b=b, quantities=Quantities(problem.outputs, b.body, b.facet_tags, b.groups, b.reactions),
+                          xf=None, remesh_reason="")
+    cells = b.mesh.topology.index_map(b.mesh.topology.dim).size_global
+    output.log(f"{problem.name}: {cells} cells, {b.solver.dofs} dofs, element {problem.mesh.element}, "
+               f"linear solver {b.solver.linear_solver_text}, "
                f"physics {', '.join(problem.active_physics) or 'elastic'}, set-up {time.perf_counter() - t_setup:.1f} s")
 
-    xf = open_fields(problem, output, comm, mesh)
+    run.xf = open_fields(problem, output, comm, b.mesh)
     fields = {}                 # the state's cell means (QuadratureMap.fields), then von_mises_stress
     state = dict(count=0)
 
+    def remesh_columns():
+        return {} if remesher is None else dict(remeshes=remesher.count)
+
     def write_fields(t):
-        if xf is None:
+        if run.xf is None:
             return
+        s = run.b.solver
         q = s.qmap
         q.fields(out=fields)
         fields["von_mises_stress"] = q.cell_mean(von_mises(q.tau_values, s.qp_jacobian()), name="von_mises_stress",
                                                  out=fields.get("von_mises_stress"))
-        xf.write_function(s.displacement_function(), t)
+        run.xf.write_function(s.displacement_function(), t)
         for f in fields.values():
-            xf.write_function(f, t)
+            run.xf.write_function(f, t)
 
     ck = checkpointer(problem, output, comm)
     loop = None
     if ck is not None and ck.resuming:
         saved = ck.load()
-        s.load_state(saved["solver"])
-        if contact is not None:
-            contact.load_state(saved["contact"])
+        b.solver.load_state(saved["solver"])
+        if b.contact is not None:
+            b.contact.load_state(saved["contact"])
         r = saved["runner"]
+        quantities = run.quantities
         quantities.history, quantities.times, state["count"] = r["history"], r["times"], r["count"]
         quantities.profiles = {k: [(t, np.asarray(a), np.asarray(b)) for t, a, b in v] for k, v in r["profiles"].items()}
         loop = saved["loop"]
-        output.log(f"{problem.name}: resumed at increment {len(s.increments)}, t = {s.lam_converged:.6g}")
+        output.log(f"{problem.name}: resumed at increment {len(b.solver.increments)}, t = {b.solver.lam_converged:.6g}")
     else:
-        output.history(increment=0, time=0.0, **quantities.row(0.0), newton_iterations=0)
+        output.history(increment=0, time=0.0, **run.quantities.row(0.0), newton_iterations=0, **remesh_columns())
         write_fields(0.0)
 
     def on_checkpoint(solver, loop_state):
+        if remesher is not None and remesher.count:
+            return          # a checkpoint holds the first mesh's state only (issue 35: not yet across remeshes)
+        quantities = run.quantities
         ck.save(len(solver.increments), solver=solver.state_dict(),
-                contact=contact.state_dict() if contact is not None else {}, loop=loop_state,
+                contact=run.b.contact.state_dict() if run.b.contact is not None else {}, loop=loop_state,
                 runner=dict(history=quantities.history, times=quantities.times, count=state["count"],
                             profiles={k: [(t, list(a), list(b)) for t, a, b in v]
                                       for k, v in quantities.profiles.items()}))
-    ck_args = {} if ck is None else dict(checkpoint_every=ck.every, on_checkpoint=on_checkpoint, resume=loop)
+    ck_args = {} if ck is None else dict(checkpoint_every=ck.every, on_checkpoint=on_checkpoint)
 
     def make_callback(step_end):
         def on_increment(solver):
+            contact = run.b.contact
             if contact is not None:
                 contact.commit()
             rec = solver.increments[-1]
             t = solver.lam_converged
-            output.history(increment=rec["increment"], time=t, **quantities.row(t),
-                           newton_iterations=rec["iterations"])
+            output.history(increment=rec["increment"], time=t, **run.quantities.row(t),
+                           newton_iterations=rec["iterations"], **remesh_columns())
             if abs(t - step_end) <= 1e-12 * max(1.0, step_end):
-                quantities.record_profiles(t)
+                run.quantities.record_profiles(t)
             state["count"] += 1
             if state["count"] % problem.output.every == 0 or abs(t - t_end) <= 1e-12 * max(1.0, t_end):
                 write_fields(t)
+            if remesher is not None and t < t_end - 1e-12 * max(1.0, t_end):
+                from fenics_plast.remeshing.quality import deformed_nodes
+                run.remesh_reason = remesher.due(run.b.mesh, deformed_nodes(solver.displacement_function()))
+                return bool(run.remesh_reason)
             return False
         return on_increment
 
+    def remesh(reason):
+        stop = remesher.check_budget()
+        if stop:
+            raise RunError(stop)
+        old = run.b
+        from fenics_plast.remeshing.new_mesh import RemeshError
+        try:
+            nb, rec, before = remeshed(problem, comm, old, remesher, reason, run.quantities, log=output.log,
+                                       progress=progress)
+        except RemeshError as e:
+            raise RunError(f"remesh {remesher.count} at t = {old.solver.lam_converged:.6g} failed: {e}") from None
+        q = Quantities(problem.outputs, nb.body, nb.facet_tags, nb.groups, nb.reactions)
+        q.history, q.times, q.profiles = run.quantities.history, run.quantities.times, run.quantities.profiles
+        after = _one_column_values(q, nb.solver.lam_converged)
+        rec.jump = {k: (before[k], after[k]) for k in before}
+        run.b, run.quantities = nb, q
+        output.log(rec.line())
+        fields.clear()              # (functions on the old mesh)
+        if run.xf is not None:
+            run.xf.close()
+            run.xf = open_fields(problem, output, comm, nb.mesh, name=f"fields_remesh{rec.number}")
+            write_fields(nb.solver.lam_converged)
+
     def results(converged):
-        res = quantities.summary("t")
-        res.update(quantities.study_keys())
-        res.update(cells=cells, dofs=s.dofs, converged=converged, increments=len(s.increments),
+        s, pairs = run.b.solver, run.b.pairs
+        res = run.quantities.summary("t")
+        res.update(run.quantities.study_keys())
+        res.update(cells=run.b.mesh.topology.index_map(run.b.mesh.topology.dim).size_global, dofs=s.dofs,
+                   converged=converged, increments=len(s.increments),
                    newton_iterations=s.total_iterations, cutbacks=len(s.cutbacks),
                    linesearch_retries=len(s.linesearch_retries), element=problem.mesh.element,
                    final_time=s.lam_converged, jacobians=s.jacobians, solve_time_s=time.perf_counter() - t_solve,
                    solver_times_s={k: round(v, 4) for k, v in s.times.items()})
+        if remesher is not None:
+            res.update(remesher.summary())
         if pairs:
             res["max_penetration_mm"] = max(p.max_penetration() for p in pairs.values())
             warnings = []
             for n, p in pairs.items():
                 res[f"penalty_{n}_N_mm3"] = p.penalty
-                spec = b.contact_pairs[n]
+                spec = run.b.contact_pairs[n]
                 report = penetration_report(n, p.max_penetration(), spec.depth, p.penalty, spec.default_penalty, comm)
                 warnings += report.pop("warnings")
                 res.update(report)
@@ -290,30 +432,45 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
         return res
 
     def finish():
+        quantities = run.quantities
         for name in quantities.profiles:
             if quantities.profiles[name]:
                 output.write_csv(name, quantities.profile_table(name))
-        write_final_shape(problem, output, Vc, positions(), s.qmap)
+        write_final_shape(problem, output, run.b.Vc, run.b.positions(), run.b.solver.qmap)
         draw_plots(problem, output)
 
     t_solve = time.perf_counter()
     try:
         for name, end, increments, max_increment in steps:
-            if s.lam_converged >= end - 1e-12 * max(1.0, end):
-                continue
-            s.run(increments=increments, min_increment=ana.min_increment, max_increment=max_increment,
-                  lam_end=end, callback=make_callback(end), **ck_args)
+            resume = loop
+            while run.b.solver.lam_converged < end - 1e-12 * max(1.0, end):
+                s = run.b.solver
+                try:
+                    if s.run(increments=increments, min_increment=ana.min_increment, max_increment=max_increment,
+                             lam_end=end, callback=make_callback(end), resume=resume, **ck_args):
+                        break
+                    reason = run.remesh_reason
+                except RunError as e:
+                    if remesher is None or remesher.increments_since == 0:
+                        raise
+                    reason = f"no convergence at t = {s.lam_converged:.6g}+"
+                    output.log(f"{problem.name}: {e}")
+                remesh(reason)
+                last = run.b.solver.increments[-1]["step"] if run.b.solver.increments else None
+                resume = None if last is None else dict(dl=last, prev_step=None, lam_end=end)
     except RunError as e:
-        quantities.record_profiles(s.lam_converged)
+        s = run.b.solver
+        run.quantities.record_profiles(s.lam_converged)
         e.results.update(results(False))
         finish()
-        raise RunError(f"{problem.name}: stopped at t = {s.lam_converged:.6g}. {e}{_penalty_hint(b, pairs)}",
+        raise RunError(f"{problem.name}: stopped at t = {s.lam_converged:.6g}. {e}{_penalty_hint(run.b, run.b.pairs)}",
                        results=e.results) from None
     finally:
-        if xf is not None:
-            xf.close()
+        fields.clear()              # (functions on the old mesh)
+        if run.xf is not None:
+            run.xf.close()
     finish()
     return results(True)
 
 
-__all__ = ["run_static", "apply_boundary", "reaction_dofs", "add_contact"]
+__all__ = ["run_static", "build_static", "remeshed", "apply_boundary", "reaction_dofs", "add_contact"]

@@ -355,6 +355,30 @@ SCHEMA: dict[str, Table] = {
             "max_increment": Key("float", OPTIONAL, "Largest increment (absent: analysis.max_increment).",
                                  **_pos()),
         }),
+    "remeshing": Table(
+        "Automatic remeshing of 2-D bodies (static analyses): after every converged increment the deformed "
+        "cells are measured (scaled Jacobian, largest corner angle); when a cell passes a threshold, or an "
+        "increment fails to converge, the deformed outline is meshed anew (quadrilaterals, Gmsh), every "
+        "facet group, region and contact pair carried over, the quadrature state (b_e^-1 through its "
+        "logarithm, eqps) transferred, equilibrium restored at the same load, and the run goes on. Absent: "
+        "the run follows the material with one mesh. Boundary values of a remeshed run must not depend on "
+        "x, y, z (the new mesh's reference is the deformed shape).", when_analysis=STATIC, keys={
+            "size": Key("float", REQUIRED, "Cell size of the new meshes.", "mm", **_pos()),
+            "refine_size": Key("float", OPTIONAL, "Cell size within 2 `size` of the corners of the deformed "
+                               "outline (where it turns by more than `corner_angle`: tool edges, folds), "
+                               "growing to `size` over a further 4 `size`; absent: `size` everywhere.", "mm",
+                               **_pos()),
+            "corner_angle": Key("float", 20.0, "A vertex of the deformed outline where the boundary turns by more "
+                                "than this is a corner, refined to `refine_size`.", "deg", lo=0.0, hi=180.0),
+            "min_scaled_jacobian": Key("float", 0.2, "Remesh when a cell's scaled Jacobian (the sine of its "
+                                       "worst corner angle, signed: <= 0 folded) falls below this.", "",
+                                       lo=0.0, hi=1.0),
+            "max_angle": Key("float", 160.0, "Remesh when a cell's corner angle exceeds this.", "deg",
+                             lo=90.0, hi=180.0),
+            "every": Key("int", 0, "Also remesh every N converged increments (0: only when the quality "
+                         "asks).", lo=0, lo_open=False),
+            "max_remeshes": Key("int", 100, "The run stops with a message after this many remeshes.", **_count()),
+        }),
     "outputs": Table(
         "Quantities recorded every increment (static) or history row (explicit): each is a history.csv "
         "column named <name>_<unit>, and its final value goes into summary.json. In axisymmetry, forces "

@@ -323,6 +323,9 @@ def validate_tables(raw: dict, where: str) -> dict[str, Any]:
         if given is None:
             if not spec.optional:
                 v.fail(f"{sec}: missing required section [{sec}]")
+            if not spec.collection and any(k.default is REQUIRED for k in spec.keys.values()):
+                tables[sec] = None          # an optional table with required keys: absent = off ([remeshing])
+                continue
             given = {}
         if spec.collection:
             if not isinstance(given, dict):
@@ -366,6 +369,24 @@ def _name_checks(t: dict[str, Any], v: _Validator):
                    f"thickness profile, the file <name>.csv in the output folder)")
 
 
+def _remeshing_checks(t: dict[str, Any], v: _Validator, geometry: str):
+    """[remeshing]: 2-D bodies; boundary values that do not depend on x, y, z (a new mesh's reference
+    coordinates are the deformed ones, so a value of the initial coordinates has no meaning there)."""
+    rm = t["remeshing"]
+    if geometry == "3d":
+        v.fail("remeshing: [remeshing] is for 2-D bodies (mesh.geometry axisymmetric or plane_strain), "
+               "not 3d")
+    if rm.refine_size is not None and rm.refine_size > rm.size:
+        v.fail(f"remeshing.refine_size = {_fmt(rm.refine_size)} is out of range: must not exceed "
+               f"remeshing.size = {_fmt(rm.size)}")
+    for n, b in t["boundary"].items():
+        value = b.get("value")
+        for val in (value if isinstance(value, tuple) else (value,)):
+            if getattr(val, "depends_on_space", False):
+                v.fail(f"boundary.{n}.value depends on x, y or z: with [remeshing] boundary values must be "
+                       f"functions of t alone (a new mesh's reference is the deformed shape)")
+
+
 def _cross_checks(t: dict[str, Any], v: _Validator):
     """Rules between keys (each message names the keys)."""
     _name_checks(t, v)
@@ -373,6 +394,8 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
     geometry = t["mesh"].geometry
     dim = vector_size(geometry)
     _geometry_checks(t, v, geometry)
+    if t.get("remeshing") is not None:
+        _remeshing_checks(t, v, geometry)
     if explicit and ana.erosion_ratio > 0.0 and ana.internal_force != "fused":
         v.fail(f"analysis.erosion_ratio = {_fmt(ana.erosion_ratio)} needs analysis.internal_force = 'fused': "
                f"element erosion is a part of the compiled force pass")

@@ -101,6 +101,55 @@ def _drop_collinear(pts, chain):
     return keep
 
 
+def _drop_short(pts, chain, min_edge):
+    """The nodes of ``chain`` without those nearer than ``min_edge`` [mm] to the last kept node or to the
+    chain's end (which are kept): no boundary edge of the new mesh shorter than ``min_edge`` but where a
+    whole curve is."""
+    if not min_edge or len(chain) <= 2:
+        return chain
+    end = pts[chain[-1]]
+    keep = [chain[0]]
+    for i in chain[1:-1]:
+        if np.linalg.norm(pts[i] - pts[keep[-1]]) >= min_edge and np.linalg.norm(end - pts[i]) >= min_edge:
+            keep.append(i)
+    keep.append(chain[-1])
+    return keep
+
+
+#: a segment is refitted to its tool where it cuts in deeper than this times its length below its ends
+FIT_TOLERANCE = 0.02
+
+
+def fitted_chain(xy, gap, depth: int = 6, samples: int = 9):
+    """The polyline ``xy`` (k, 2) [mm] with points added where a segment cuts into a rigid tool deeper
+    than its ends (a chord across a rounded tool edge, whose new nodes would start far inside the tool):
+    at a segment's deepest sample the point moved along the tool's normal to the level of its shallower
+    end (or onto the surface when both ends are apart), then the two halves the same way, ``depth``
+    times at most. ``gap(x (n, 2)) -> (g (n,), N (n, 2))``: the tool's signed gap [mm] (negative inside)
+    and unit normal (the direction g grows)."""
+    out = [np.asarray(xy[0], dtype=float)]
+
+    def split(a, b, ga, gb, level):
+        s = np.linspace(0.0, 1.0, samples)[1:-1, None]
+        pts = a + s * (b - a)
+        g, N = gap(pts)
+        target = min(min(ga, gb), 0.0)
+        k = int(np.argmin(g))
+        if level == 0 or g[k] >= target - FIT_TOLERANCE * np.linalg.norm(b - a):
+            out.append(b)
+            return
+        q = pts[k] + (target - g[k]) * N[k]
+        gq = float(gap(q[None, :])[0][0])
+        split(a, q, ga, gq, level - 1)
+        split(q, b, gq, gb, level - 1)
+
+    g_all = gap(np.asarray(xy, dtype=float))[0]
+    for i in range(len(xy) - 1):
+        split(np.asarray(xy[i], dtype=float), np.asarray(xy[i + 1], dtype=float), float(g_all[i]),
+              float(g_all[i + 1]), depth)
+    return np.array(out)
+
+
 def _set_field_number(field, names, value):
     """Set the first of ``names`` the Gmsh version knows (e.g. SizeMin, LcMin) on ``field``."""
     for n in names:
@@ -139,9 +188,11 @@ def _size_fields(h, h_min, radius, refine_points):
     gmsh.model.mesh.field.setAsBackgroundMesh(thr)
 
 
-def _build(out: Outline, curves: str):
+def _build(out: Outline, curves: str, min_edge: float | None = None, fits=None):
     """The outline as Gmsh geo entities (rank 0): returns ({curve index: Gmsh curve tags}, {region tag:
-    [surface tags]})."""
+    [surface tags]}); ``min_edge`` [mm]: lines drop the old vertices nearer than that to the last kept
+    one (:func:`_drop_short`); ``fits``: {facet group: gap function}, the lines of a curve in that group
+    fitted to the tool (:func:`fitted_chain`)."""
     g = gmsh.model.geo
     pts = out.points
     point_tag = {}
@@ -156,8 +207,15 @@ def _build(out: Outline, curves: str):
         if curves == "splines" and len(nodes) > 2:
             entities[ci] = [g.addSpline([point(i) for i in nodes])]
         else:
-            nodes = _drop_collinear(pts, nodes)
-            entities[ci] = [g.addLine(point(p), point(q)) for p, q in zip(nodes[:-1], nodes[1:])]
+            nodes = _drop_short(pts, _drop_collinear(pts, nodes), min_edge)
+            gap = next((fits[n] for n in sorted(c.names) if fits and n in fits), None)
+            tags = [point(i) for i in nodes]
+            if gap is not None:
+                xy = fitted_chain(pts[nodes], gap)
+                xy = xy[_drop_short(xy, list(range(len(xy))), min_edge)]
+                inner = [g.addPoint(float(p[0]), float(p[1]), 0.0) for p in xy[1:-1]]
+                tags = [tags[0]] + inner + [tags[-1]] if len(xy) != len(nodes) else tags
+            entities[ci] = [g.addLine(p, q) for p, q in zip(tags[:-1], tags[1:])]
     surfaces = {}
     for region, loops in out.surfaces:
         loop_tags = []
@@ -283,12 +341,16 @@ def _compact_model(name, curve_groups, surface_groups):
 
 def mesh_outline(comm, out: Outline, h: float, h_min: float | None = None, refine_points=(),
                  radius: float | None = None, curves: str = "lines", recombination: int = 3,
-                 smoothing: int = 5, algorithm: int = 6, name: str = "remeshed") -> Remeshed:
+                 smoothing: int = 5, algorithm: int = 6, name: str = "remeshed", min_edge: float | None = None,
+                 fits=None) -> Remeshed:
     """A quadrilateral mesh of the outline ``out`` (built on rank 0; other ranks pass an empty one):
     size ``h`` [mm], ``h_min`` [mm] within ``radius`` [mm] (default 2 ``h``) of each of
     ``refine_points`` ((k, 2) [mm], e.g. tool edges), lines or splines (``curves``, see the module),
     Gmsh's Mesh.Algorithm ``algorithm`` (6: Frontal-Delaunay) recombined by Mesh.RecombinationAlgorithm
-    ``recombination`` (3: Blossom full-quad), ``smoothing`` Laplacian passes. An outline that crosses
+    ``recombination`` (3: Blossom full-quad), ``smoothing`` Laplacian passes; ``min_edge`` [mm]: old
+    boundary vertices nearer than that to their kept neighbour are dropped (lines only; None: every old
+    vertex is kept, and the area with it, to round-off); ``fits`` {facet group: gap function}: the lines
+    of those groups refitted to their tool (:func:`fitted_chain`). An outline that crosses
     or touches itself (:func:`~fenics_plast.remeshing.outline.crossings`) is refused. Returns
     :class:`Remeshed` (unpacks as ``mesh, cell_tags, facet_tags, groups``), distributed from rank 0.
     Collective; RemeshError on every rank when the outline is refused or Gmsh fails."""
@@ -307,7 +369,7 @@ def mesh_outline(comm, out: Outline, h: float, h_min: float | None = None, refin
                     raise RemeshError(f"the deformed outline crosses or touches itself ({len(bad)} pair(s) of "
                                       f"boundary facets, the first near x = {where[0]:.4g}, y = {where[1]:.4g} mm): "
                                       f"a fold has closed onto the body; remesh earlier")
-                entities, surfaces = _build(out, curves)
+                entities, surfaces = _build(out, curves, min_edge, fits)
                 _size_fields(h, h_min, radius, refine_points)
                 subdivided = False
                 if _generate(False, algorithm, recombination, smoothing):
