@@ -193,42 +193,119 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
                            body=body, mesh=mesh, cell_tags=ct, facet_tags=ft, groups=groups)
 
 
+def remeshed_explicit(problem, comm, b, remesher, reason, quantities, log=None) -> tuple:
+    """The explicit run ``b`` (:func:`build_explicit`'s, at time t) on a new mesh of its deformed outline
+    (issue 35): the quadrature state and the velocities transferred (the nodal velocity field evaluated
+    at the new nodes), the solver built anew at t with the step count, the initial kinetic energy and the
+    work accumulators carried; the internal work takes the change of elastic energy, so that the
+    balance counts what the transfer changed in kinetic and elastic energy as its error. The mass of
+    the new mesh is the reference density times its volume (the old deformed one): off by the elastic
+    volume change (recorded in the jump). Returns (the new build with ``u_before``, the record, the
+    outputs before). Collective."""
+    from dolfinx import fem
+    from fenics_plast.remeshing.quality import deformed_nodes
+    from fenics_plast.remeshing.remesher import timed
+    s = b.solver
+    t = s.t
+    x = deformed_nodes(s.u)
+    rec = remesher.start(t / US, reason, s.cells_global, remesher.quality(b.mesh, x))
+    before = _one_column_values(quantities, t / US)
+    e_old = s.energies()
+    clock = timed()
+    new = remesher.new_mesh(b.mesh, b.cell_tags, b.facet_tags, b.groups, x, getattr(b, "group_facets", None))
+    rec.mesh_s = clock.lap()
+    state, rec.transfer, transfer = remesher.transfer(b.mesh, x, s.qmap.degree, s.qmap.state(), new[0])
+    total = fem.Function(s.u.function_space)
+    total.x.array[:] = s.u.x.array + b.u_before
+    rec.transfer_s = clock.lap()
+    nb = build_explicit(problem, comm, tuple(new))
+    s2 = nb.solver
+    s2.log = s.log
+    new_total = fem.Function(s2.V)
+    transfer.nodal_function(total, new_total)
+    nb.u_before = new_total.x.array.copy()
+    nb.body.X = nb.body.X - nb.u_before.reshape(nb.body.X.shape)
+    nb.group_facets = new.group_facets
+    v = fem.Function(s2.V)
+    transfer.nodal_function(s.v, v)
+    s2.set_velocity(v.x.array.reshape(-1, s2.bs))
+    s2.qmap.set_state(state)
+    rec.transfer_s += clock.lap()
+    s2.t, s2.step_count = s.t, s.step_count
+    s2.initialize()
+    root = comm.rank == 0
+    s2.KE0 = s.KE0
+    e_new = s2.energies()
+    s2.W_int = (e_old["internal_work"] + e_new["elastic"] - e_old["elastic"]) if root else 0.0
+    s2.W_ext = e_old["external_work"] if root else 0.0
+    if s2.walls.active:
+        s2.walls.restore(e_old["wall"], root)
+    rec.rebuild_s = clock.lap()
+    rec.new_cells = s2.cells_global
+    q = remesher.quality(nb.mesh, None)
+    rec.new_quality = remesher.fresh = (q.min_scaled_jacobian, q.max_angle_deg)
+    rec.energy_jump_J = dict(kinetic=(e_old["kinetic"] * 1e-3, e_new["kinetic"] * 1e-3),
+                             elastic=(e_old["elastic"] * 1e-3, e_new["elastic"] * 1e-3))
+    return nb, rec, before
+
+
+def _one_column_values(quantities, t) -> dict:
+    """{output name: value} of the one-column outputs (not expressions, not profiles) at ``t``."""
+    from fenics_plast.quantities.registry import KINDS
+    out = {}
+    for name, o in quantities.outputs.items():
+        if o.quantity == "expression" or getattr(KINDS[o.quantity], "PROFILE", False) or \
+                len(quantities.columns[name]) != 1:
+            continue
+        out[name] = float(quantities.value(name, o, t, {})[0])
+    return out
+
+
 def run_explicit(problem, output, comm, mesh_data=None) -> dict:
     if isinstance(mesh_data, SimpleNamespace):      # built by runner.prepare (before anything was written)
         b = mesh_data
         b.solver.log = output.log
     else:
         b = build_explicit(problem, comm, mesh_data, log=output.log)
-    solver, material, pairs, mesh = b.solver, b.material, b.pairs, b.mesh
+    b.u_before = 0.0
     ana = problem.analysis
-    quantities = Quantities(problem.outputs, b.body, b.facet_tags, b.groups)
+    remesher = None
+    if problem.remeshing is not None:
+        from fenics_plast.remeshing.remesher import Remesher
+        remesher = Remesher(problem.remeshing, problem.mesh.geometry == "axisymmetric")
+    run = SimpleNamespace(b=b, quantities=Quantities(problem.outputs, b.body, b.facet_tags, b.groups), xf=None,
+                          remesh_reason="")
     end_time = ana.end_time
-    rows = b.history_rows if "history_rows" in vars(b) else checked_steps(problem, solver)
+    rows = b.history_rows if "history_rows" in vars(b) else checked_steps(problem, b.solver)
     if rows < problem.output.history_points:
         output.log(f"{problem.name}: output.history_points = {problem.output.history_points} is more than the run's "
                    f"about {rows - 1} time steps: {rows} history rows (one per step at most)")
     every = int(problem.output.every)
-    xf = open_fields(problem, output, comm, mesh)
+    run.xf = open_fields(problem, output, comm, b.mesh)
     state = dict(row=0, fields={})
 
     ck = checkpointer(problem, output, comm)
     loop = None
     if ck is not None and ck.resuming:
         saved = ck.load()
-        solver.load_state(saved["solver"])
+        b.solver.load_state(saved["solver"])
         r = saved["runner"]
+        quantities = run.quantities
         quantities.history, quantities.times, state["row"] = r["history"], r["times"], r["row"]
         loop = saved["loop"]
-        output.log(f"{problem.name}: resumed at step {solver.step_count}, t = {solver.t / US:.4g} us")
+        output.log(f"{problem.name}: resumed at step {b.solver.step_count}, t = {b.solver.t / US:.4g} us")
 
     def on_checkpoint(s, loop_state):
+        if remesher is not None and remesher.count:
+            return          # a checkpoint holds the first mesh's state only (issue 35: not yet across remeshes)
         ck.save(s.step_count, solver=s.state_dict(), loop=loop_state,
-                runner=dict(history=quantities.history, times=quantities.times, row=state["row"]))
+                runner=dict(history=run.quantities.history, times=run.quantities.times, row=state["row"]))
 
     scaling = ana.mass_scaling_dt > 0.0
 
     def on_row(s, t):
         # (a stop right after landing on a row time writes the fields only, not a second row)
+        quantities, xf = run.quantities, run.xf
         if not (state.get("stop") and quantities.times and t / US <= quantities.times[-1]):
             cols = quantities.row(t / US)          # the declared outputs, then the automatic ones
             if scaling:
@@ -238,56 +315,106 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
                                f"{100 * cols['added_mass_fraction']:.3g} % of the body's mass (to "
                                f"{cols['mass_scaled_cells']} cells): the answer may be another body's; a "
                                f"smaller analysis.mass_scaling_dt adds less")
+            if remesher is not None:
+                cols["remeshes"] = remesher.count
             nonfinite_guard(cols, f"{problem.name}: history row at t = {t / US:.6g} us")
             output.history(time_us=t / US, **cols)
         # (a stop where fields were just written, e.g. a fold in the first step, writes none again)
         if xf is not None and (state["row"] % every == 0 or t >= end_time * (1 - 1e-12) or state.get("stop")) \
                 and state.get("fields_t") != t:
-            state["fields_t"] = t
-            fields_guard(s, f"{problem.name}: fields at t = {t / US:.6g} us")
-            xf.write_function(s.u, t / US)
-            for f in s.qmap.fields(out=state["fields"]).values():     # eqps, temperature (Johnson-Cook) [K]
-                xf.write_function(f, t / US)
-            if s.erosion_ratio > 0.0:   # 1 on the eroded cells (a Threshold in ParaView hides them)
-                state["eroded"] = eroded_field(s, state.get("eroded"))
-                xf.write_function(state["eroded"], t / US)
+            write_fields(s, t)
         state["row"] += 1
 
+    def write_fields(s, t):
+        state["fields_t"] = t
+        fields_guard(s, f"{problem.name}: fields at t = {t / US:.6g} us")
+        run.xf.write_function(s.u, t / US)
+        for f in s.qmap.fields(out=state["fields"]).values():     # eqps, temperature (Johnson-Cook) [K]
+            run.xf.write_function(f, t / US)
+        if s.erosion_ratio > 0.0:   # 1 on the eroded cells (a Threshold in ParaView hides them)
+            state["eroded"] = eroded_field(s, state.get("eroded"))
+            run.xf.write_function(state["eroded"], t / US)
+
+    def on_check(s):
+        from fenics_plast.remeshing.quality import deformed_nodes
+        run.remesh_reason = remesher.due(run.b.mesh, deformed_nodes(s.u))
+        return bool(run.remesh_reason)
+
+    def remesh(reason):
+        stop = remesher.check_budget()
+        if stop:
+            raise RunError(stop)
+        from fenics_plast.remeshing.new_mesh import RemeshError
+        try:
+            nb, rec, before = remeshed_explicit(problem, comm, run.b, remesher, reason, run.quantities)
+        except RemeshError as e:
+            raise RunError(f"remesh {remesher.count} at t = {run.b.solver.t / US:.4g} us failed: {e}") from None
+        q = Quantities(problem.outputs, nb.body, nb.facet_tags, nb.groups)
+        q.history, q.times, q.profiles = run.quantities.history, run.quantities.times, run.quantities.profiles
+        after = _one_column_values(q, nb.solver.t / US)
+        rec.jump = {k: (before[k], after[k]) for k in before}
+        run.b, run.quantities = nb, q
+        output.log(rec.line())
+        state["fields"] = {}
+        state.pop("eroded", None)
+        if run.xf is not None:
+            run.xf.close()
+            run.xf = open_fields(problem, output, comm, nb.mesh, name=f"fields_remesh{rec.number}")
+            write_fields(nb.solver, nb.solver.t)
+
     bar = output.progress(end_time / US, problem.name, what="t", unit="us")
-    ck_args = {} if ck is None else dict(checkpoint_every=ck.every, on_checkpoint=on_checkpoint, resume=loop)
+    ck_args = {} if ck is None else dict(checkpoint_every=ck.every, on_checkpoint=on_checkpoint)
     stop = None
     try:
-        stats = solver.run(end_time, dt_safety=ana.dt_safety, steps=ana.time_steps, rows=rows, on_row=on_row,
-                           bar=bar, dt_floor=ana.dt_floor, mass_scaling_dt=ana.mass_scaling_dt, **ck_args)
+        while True:
+            solver = run.b.solver
+            try:
+                stats = solver.run(end_time, dt_safety=ana.dt_safety, steps=ana.time_steps, rows=rows, on_row=on_row,
+                                   bar=bar, dt_floor=ana.dt_floor, mass_scaling_dt=ana.mass_scaling_dt, resume=loop,
+                                   on_check=on_check if remesher is not None else None, **ck_args)
+                if "loop" not in stats:
+                    break
+                loop, reason = stats["loop"], run.remesh_reason
+            except TimeStepCollapse as e:
+                if remesher is None or remesher.increments_since == 0 or e.loop is None:
+                    raise
+                loop, reason = e.loop, f"a cell would fold at t = {solver.t / US:.4g} us"
+            remesh(reason)
     except TimeStepCollapse as e:
         # the state at the stop is sound: a last history row, the fields and a checkpoint there
         stop, stats = e, e.stats
         state["stop"] = True
-        on_row(solver, solver.t)
+        on_row(run.b.solver, run.b.solver.t)
         if ck is not None:
-            on_checkpoint(solver, e.loop)
+            on_checkpoint(run.b.solver, e.loop)
     except RunError as e:
         # gone unstable (non-finite): the outputs of the history rows so far, not of the state now
-        e.results.update(quantities.summary("time_us"))
-        e.results.update(quantities.study_keys())
+        solver = run.b.solver
+        e.results.update(run.quantities.summary("time_us"))
+        e.results.update(run.quantities.study_keys())
         e.results.update(stopped_at_us=solver.t / US, steps=solver.step_count, cells=solver.cells_global,
                          dofs=solver.dofs_global, converged=False)
-        e.results.update(quantities.automatic_summary(failed=True))
+        e.results.update(run.quantities.automatic_summary(failed=True))
+        if remesher is not None:
+            e.results.update(remesher.summary())
         raise e.reword(SCENE_TERMS)
     finally:
-        if xf is not None:
-            xf.close()
+        if run.xf is not None:
+            run.xf.close()
+    solver, pairs, quantities = run.b.solver, run.b.pairs, run.quantities
     res = quantities.summary("time_us")
     res.update(quantities.study_keys(automatic=True))
     e = solver.energies()
     res.update(energy_balance_error=e["balance_error"], steps=stats["steps"], dt_s=stats["dt_max"],
                dt_min_s=stats["dt_min"], dt_stable_initial_s=stats["dt_stable_initial"],
                dt_stable_final_s=stats["dt_stable_final"], wave_speed_m_s=solver.c * 1e-3,
-               element=solver.element, model=material.model, internal_force=solver.internal_force_route,
+               element=solver.element, model=run.b.material.model, internal_force=solver.internal_force_route,
                step_loop_time_s=stats["wall_s"], time_per_step_s=stats["time_per_step_s"],
                setup_time_s=solver.timings["setup_s"], cells=solver.cells_global, dofs=solver.dofs_global,
                converged=stop is None)
     res.update(quantities.automatic_summary())      # mass scaling, walls, erosion: when the run has them
+    if remesher is not None:
+        res.update(remesher.summary())
     if pairs:
         # the contact terms of the balance (energy_balance_error includes them) and, per pair, the
         # largest penetration of the run and its penalty; the springs' stable-step limit (collective calls)
@@ -297,7 +424,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
         for name, p in pairs.items():
             res[f"{name}_max_penetration_mm"] = p.max_penetration_run()
             res[f"{name}_penalty_N_mm3"] = p.penalty
-            spec = b.contact_pairs[name]
+            spec = run.b.contact_pairs[name]
             report = penetration_report(name, res[f"{name}_max_penetration_mm"], spec.depth, p.penalty,
                                         spec.default_penalty, comm)
             warnings += report.pop("warnings")

@@ -176,6 +176,9 @@ SCHEMA: dict[str, Table] = {
                                  **_pos()),
             "max_iterations": Key("int", 25, "Newton iterations per increment before cutting back.",
                                   when={"type": STATIC}, lo=2, lo_open=False),
+            "fast_iterations": Key("int", 4, "An increment that converges in at most this many Newton iterations "
+                                   "lets the next one grow by half (up to max_increment); frictional contact "
+                                   "typically takes 5 to 8.", when={"type": STATIC}, **_count()),
             "rtol": Key("float", 1e-9, "Relative residual tolerance.", when={"type": STATIC}, **_pos()),
             "atol": Key("float", 1e-8, "Absolute residual tolerance.", "N", when={"type": STATIC}, **_pos()),
             "linesearch": Key("str", "bt", "SNES line search.", choices=("bt", "basic", "l2"),
@@ -356,13 +359,15 @@ SCHEMA: dict[str, Table] = {
                                  **_pos()),
         }),
     "remeshing": Table(
-        "Automatic remeshing of 2-D bodies (static analyses): after every converged increment the deformed "
+        "Automatic remeshing of 2-D bodies: after every converged increment (static) the deformed "
         "cells are measured (scaled Jacobian, largest corner angle); when a cell passes a threshold, or an "
         "increment fails to converge, the deformed outline is meshed anew (quadrilaterals, Gmsh), every "
         "facet group, region and contact pair carried over, the quadrature state (b_e^-1 through its "
         "logarithm, eqps) transferred, equilibrium restored at the same load, and the run goes on. Absent: "
         "the run follows the material with one mesh. Boundary values of a remeshed run must not depend on "
-        "x, y, z (the new mesh's reference is the deformed shape).", when_analysis=STATIC, keys={
+        "x, y, z (the new mesh's reference is the deformed shape). Explicit runs check the cells at every "
+        "step-size check and remesh there, or where the next step would fold a cell (no contact pairs, "
+        "prescribed motions, loads, erosion or mass scaling with it yet).", keys={
             "size": Key("float", REQUIRED, "Cell size of the new meshes.", "mm", **_pos()),
             "refine_size": Key("float", OPTIONAL, "Cell size within 2 `size` of the corners of the deformed "
                                "outline (where it turns by more than `corner_angle`: tool edges, folds), "
@@ -376,7 +381,7 @@ SCHEMA: dict[str, Table] = {
             "max_angle": Key("float", 160.0, "Remesh when a cell's corner angle exceeds this.", "deg",
                              lo=90.0, hi=180.0),
             "every": Key("int", 0, "Also remesh every N converged increments (0: only when the quality "
-                         "asks).", lo=0, lo_open=False),
+                         "asks).", lo=0, lo_open=False, when_analysis=STATIC),
             "max_remeshes": Key("int", 100, "The run stops with a message after this many remeshes.", **_count()),
         }),
     "outputs": Table(

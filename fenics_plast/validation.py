@@ -379,6 +379,16 @@ def _remeshing_checks(t: dict[str, Any], v: _Validator, geometry: str):
     if rm.refine_size is not None and rm.refine_size > rm.size:
         v.fail(f"remeshing.refine_size = {_fmt(rm.refine_size)} is out of range: must not exceed "
                f"remeshing.size = {_fmt(rm.size)}")
+    if v.analysis == "explicit":
+        ana = t["analysis"]
+        why = ([f"contact.{n}" for n in t["contact"]]
+               + [f"boundary.{n} (type {b.type})" for n, b in t["boundary"].items()
+                  if b.type in ("velocity", "displacement", "traction", "pressure")]
+               + (["analysis.erosion_ratio > 0"] if ana.erosion_ratio > 0.0 else [])
+               + (["analysis.mass_scaling_dt > 0"] if ana.mass_scaling_dt > 0.0 else []))
+        if why:
+            v.fail(f"remeshing: explicit runs remesh bodies without contact pairs, prescribed motions, loads, "
+                   f"erosion and mass scaling (not yet built): {', '.join(why)}")
     for n, b in t["boundary"].items():
         value = b.get("value")
         for val in (value if isinstance(value, tuple) else (value,)):

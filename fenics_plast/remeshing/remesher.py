@@ -135,7 +135,7 @@ class Remesher:
         q = self.quality(mesh, x)
         if q.remesh and self._worse_than_fresh(q):
             return q.reason
-        every = self.spec.every
+        every = self.spec.get("every")          # (static only)
         if every and self.increments_since >= every:
             return f"every {every} increments"
         return ""
@@ -149,6 +149,22 @@ class Remesher:
             return True
         sj, angle = self.fresh
         return q.min_scaled_jacobian < sj - FRESH_MARGIN_SJ or q.max_angle_deg > angle + FRESH_MARGIN_DEG
+
+    def volumes(self, mesh, x, degree: int, binv) -> tuple[float, float]:
+        """(the body's volume [mm^3] (axisymmetric: 2 pi r dA; plane strain: per mm), the same with each
+        point's elastic dilatation taken out, sum of dv / J_e with J_e = det(b_e^-1)^(-1/2)) of ``mesh``
+        deformed to ``x`` (None: as it stands), ``binv`` (points, 3, 3) at its owned points. The second is
+        the volume the body would have unloaded: the first mesh's volume, whatever remeshing did, for a
+        plastic flow that keeps volume (the isochoric model); its change measures what remeshing lost or
+        added. Collective."""
+        from mpi4py import MPI
+        from .transfer import quadrature_volumes
+        dv = quadrature_volumes(mesh, degree, self.axisymmetric, x).reshape(-1)
+        if self.axisymmetric:
+            dv = 2.0 * np.pi * dv
+        je = np.sqrt(1.0 / np.linalg.det(np.asarray(binv).reshape(-1, 3, 3)))
+        local = np.array([dv.sum(), (dv / je).sum()])
+        return tuple(float(v) for v in mesh.comm.allreduce(local, op=MPI.SUM))
 
     def check_budget(self) -> str | None:
         """The message that stops the run when ``max_remeshes`` remeshes have been made, else None."""
@@ -190,10 +206,18 @@ class Remesher:
         self.increments_since = 0
         return rec
 
-    def summary(self) -> dict:
-        """summary.json's entries: ``remeshes``, ``remesh_time_s`` and per remesh its record."""
-        return dict(remeshes=self.count, remesh_time_s=round(sum(r.seconds for r in self.records), 4),
-                    remesh_records=[{k: v for k, v in asdict(r).items()} for r in self.records])
+    def summary(self, volumes=None) -> dict:
+        """summary.json's entries: ``remeshes``, ``remesh_time_s``, per remesh its record, and with
+        ``volumes`` ((first volume, its stress-free volume), (last volume, its stress-free volume)
+        [mm^3], :meth:`volumes`) the volume change and the part of it that elasticity does not explain
+        (``volume_change_unexplained``: relative change of the stress-free volume)."""
+        out = dict(remeshes=self.count, remesh_time_s=round(sum(r.seconds for r in self.records), 4))
+        if volumes is not None:
+            (v0, f0), (v1, f1) = volumes
+            out.update(volume_initial_mm3=v0, volume_final_mm3=v1, volume_change=(v1 - v0) / v0,
+                       volume_change_elastic=(v1 - f1) / v0, volume_change_unexplained=(f1 - f0) / f0)
+        out["remesh_records"] = [{k: v for k, v in asdict(r).items()} for r in self.records]
+        return out
 
 
 def timed():

@@ -96,7 +96,7 @@ from fenics_plast.state_variables import STATE
 
 __all__ = ["StateTransfer", "OldBody", "RULES", "TransferReport", "Located", "gauss_to_corners", "nodal_average",
            "locate", "bilinear", "shape_functions", "cell_corners", "quadrature_points", "quadrature_volumes",
-           "spd_log", "spd_exp"]
+           "spd_log", "spd_exp", "scattered_values"]
 
 #: transfer rule of a state variable, by its shape per point
 RULES = {(): "bounded", (3, 3): "spd-log"}
@@ -566,6 +566,26 @@ class StateTransfer:
         where = locate(self.body, x)
         new_function.x.array[: n_owned * bs] = bilinear(corner_values, where.cells, where.xi).reshape(-1)
         new_function.x.scatter_forward()
+
+
+def scattered_values(old_points: np.ndarray, old_values: np.ndarray, new_points: np.ndarray, comm) -> np.ndarray:
+    """Values (m, k) at ``new_points`` (m, 2) [mm] of values (n, k) known at scattered ``old_points``
+    (n, 2) [mm] (each rank its own; gathered to every rank): the two nearest old points' values
+    weighted by the inverse distance, linear along a row of points such as a boundary group's nodes
+    (a contact pair's history). Collective; (m, k) zeros where there are no old points."""
+    k = old_values.shape[1] if old_values.ndim == 2 else 1
+    pts = np.concatenate(comm.allgather(np.asarray(old_points, dtype=float).reshape(-1, 2)))
+    vals = np.concatenate(comm.allgather(np.asarray(old_values, dtype=float).reshape(-1, k)))
+    new_points = np.asarray(new_points, dtype=float).reshape(-1, 2)
+    if not len(pts) or not len(new_points):
+        return np.zeros((len(new_points), k))
+    d = np.linalg.norm(new_points[:, None, :] - pts[None, :, :], axis=2)
+    if len(pts) == 1:
+        return np.repeat(vals, len(new_points), axis=0)
+    near = np.argsort(d, axis=1)[:, :2]
+    d1, d2 = np.take_along_axis(d, near, axis=1).T
+    w1 = np.where(d1 + d2 > 0.0, d2 / np.maximum(d1 + d2, 1e-300), 1.0)
+    return w1[:, None] * vals[near[:, 0]] + (1.0 - w1)[:, None] * vals[near[:, 1]]
 
 
 def _min():

@@ -826,7 +826,7 @@ class ExplicitDynamics:
     def run(self, end_time, dt_safety=default("analysis.dt_safety"), steps=None, rows=2, on_row=None, progress=10,
             max_steps=None, bar=None, checkpoint_every=default("output.checkpoint_every", analysis="explicit"),
             on_checkpoint=None, resume=None, dt_floor=default("analysis.dt_floor"),
-            mass_scaling_dt=default("analysis.mass_scaling_dt")):
+            mass_scaling_dt=default("analysis.mass_scaling_dt"), on_check=None):
         """Integrate to ``end_time`` [s]: :func:`fenics_plast.solvers.time_stepping.drive` (the step size, the
         rows, checks, progress and checkpoints; this class takes one step, :meth:`step`, or a chunk, :meth:`advance`).
 
@@ -853,10 +853,12 @@ class ExplicitDynamics:
         :class:`~fenics_plast.errors.Arg`: ``dt_safety``, ``steps``, ``dt_floor``, ``mass_scaling_dt``,
         ``stable_step``, ``erosion_ratio``, ``element``, and ``mesh``, ``material.model``, ``add_wall``);
         ``str()`` words them so, a driver in its own terms (``RunError.worded``).
+        ``on_check(solver)`` is called at every step-size check (each ``reestimate_every`` steps); True stops
+        the run there, the statistics then with ``loop`` (``resume=loop`` goes on, e.g. on a new mesh).
         Returns a dict of run statistics.
         """
         return time_stepping.drive(self, end_time, dt_safety, steps, rows, on_row, progress, max_steps, bar,
-                                   checkpoint_every, on_checkpoint, resume, dt_floor, mass_scaling_dt)
+                                   checkpoint_every, on_checkpoint, resume, dt_floor, mass_scaling_dt, on_check)
 
     def log_erosion(self):
         """A log line when cells have been eroded since the last call (collective)."""

@@ -721,7 +721,7 @@ class StaticSolver:
 
     def run(self, increments=default("analysis.increments"), min_increment=default("analysis.min_increment"),
             max_increment=default("analysis.max_increment"), lam_end=1.0, callback=None, growth=1.5,
-            fast_iterations=4, checkpoint_every=default("output.checkpoint_every", analysis="static"),
+            fast_iterations=default("analysis.fast_iterations"), checkpoint_every=default("output.checkpoint_every", analysis="static"),
             on_checkpoint=None, resume=None):
         """Drive lam from its current value to lam_end: :func:`fenics_plast.solvers.load_stepping.drive`
         (the increments, cut-back and retries; this class solves one increment, :meth:`solve_increment`)."""

@@ -19,7 +19,7 @@ from fenics_plast.solvers.collapse import collapse_error, fold_error
 
 
 def drive(solver, end_time, dt_safety, steps, rows, on_row, progress, max_steps, bar, checkpoint_every,
-          on_checkpoint, resume, dt_floor, mass_scaling_dt):
+          on_checkpoint, resume, dt_floor, mass_scaling_dt, on_check=None):
     """Integrate ``solver`` (an :class:`~fenics_plast.solvers.explicit.ExplicitDynamics`) to ``end_time`` [s]
     (the arguments and what it returns and raises: :meth:`~fenics_plast.solvers.explicit.ExplicitDynamics.run`,
     which declares their defaults)."""
@@ -154,4 +154,9 @@ def drive(solver, end_time, dt_safety, steps, rows, on_row, progress, max_steps,
             on_checkpoint(solver, dict(next_row=next_row, next_prog=next_prog, dt_stable=dt_stable,
                                        dt_stable0=dt_stable0, dt_min=dt_min, dt_max=dt_max))
             last_checkpoint = solver.step_count
+        if on_check is not None and solver.step_count % solver.reestimate_every == 0 and on_check(solver):
+            out = stats(solver.stable_dt())         # stopped by the caller (a remesh): where to go on from
+            out["loop"] = dict(next_row=next_row, next_prog=next_prog, dt_stable=dt_stable, dt_stable0=dt_stable0,
+                               dt_min=dt_min, dt_max=dt_max)
+            return out
     return stats(solver.stable_dt())
