@@ -244,8 +244,8 @@ def remeshed_explicit(problem, comm, b, remesher, reason, quantities, log=None) 
     rec.new_cells = s2.cells_global
     q = remesher.quality(nb.mesh, None)
     rec.new_quality = remesher.fresh = (q.min_scaled_jacobian, q.max_angle_deg)
-    rec.energy_jump_J = dict(kinetic=(e_old["kinetic"] * 1e-3, e_new["kinetic"] * 1e-3),
-                             elastic=(e_old["elastic"] * 1e-3, e_new["elastic"] * 1e-3))
+    rec.energy_jump = dict(kinetic_J=(e_old["kinetic"] * 1e-3, e_new["kinetic"] * 1e-3),
+                           elastic_J=(e_old["elastic"] * 1e-3, e_new["elastic"] * 1e-3))
     return nb, rec, before
 
 
@@ -273,6 +273,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
     if problem.remeshing is not None:
         from fenics_plast.remeshing.remesher import Remesher
         remesher = Remesher(problem.remeshing, problem.mesh.geometry == "axisymmetric")
+        remesher.initial_volumes = remesher.volumes(b.mesh, None, b.solver.qmap.degree, b.solver.qmap.state()["binv"])
     run = SimpleNamespace(b=b, quantities=Quantities(problem.outputs, b.body, b.facet_tags, b.groups), xf=None,
                           remesh_reason="")
     end_time = ana.end_time
@@ -365,6 +366,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
     bar = output.progress(end_time / US, problem.name, what="t", unit="us")
     ck_args = {} if ck is None else dict(checkpoint_every=ck.every, on_checkpoint=on_checkpoint)
     stop = None
+    earlier_wall_s = 0.0            # the step loops of the meshes before the last (a remeshed run)
     try:
         while True:
             solver = run.b.solver
@@ -377,9 +379,14 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
                 loop, reason = stats["loop"], run.remesh_reason
             except TimeStepCollapse as e:
                 if remesher is None or remesher.increments_since == 0 or e.loop is None:
+                    if e.stats is not None:
+                        e.stats["wall_s"] += earlier_wall_s
                     raise
-                loop, reason = e.loop, f"a cell would fold at t = {solver.t / US:.4g} us"
+                stats, loop, reason = e.stats, e.loop, f"a cell would fold at t = {solver.t / US:.4g} us"
+            earlier_wall_s += stats["wall_s"]
             remesh(reason)
+        stats["wall_s"] += earlier_wall_s
+        stats["time_per_step_s"] = stats["wall_s"] / max(solver.step_count, 1)
     except TimeStepCollapse as e:
         # the state at the stop is sound: a last history row, the fields and a checkpoint there
         stop, stats = e, e.stats
@@ -414,7 +421,9 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
                converged=stop is None)
     res.update(quantities.automatic_summary())      # mass scaling, walls, erosion: when the run has them
     if remesher is not None:
-        res.update(remesher.summary())
+        from fenics_plast.remeshing.quality import deformed_nodes
+        last = remesher.volumes(run.b.mesh, deformed_nodes(solver.u), solver.qmap.degree, solver.qmap.state()["binv"])
+        res.update(remesher.summary((remesher.initial_volumes, last)))
     if pairs:
         # the contact terms of the balance (energy_balance_error includes them) and, per pair, the
         # largest penetration of the run and its penalty; the springs' stable-step limit (collective calls)

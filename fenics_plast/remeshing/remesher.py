@@ -44,8 +44,9 @@ class RemeshRecord:
     counts, the worst old and new cells (``old_quality`` / ``new_quality``: min scaled Jacobian, max
     corner angle [deg]), where the time went [s] (``mesh_s``: outline and Gmsh; ``transfer_s``;
     ``rebuild_s``: the solver on the new mesh; ``equilibrium_s``), the re-equilibration's Newton
-    iterations, the transfer report (:class:`~fenics_plast.remeshing.transfer.TransferReport`) and the
-    jump of the key results across the remesh (``jump``: {column: (before, after)})."""
+    iterations (static runs), the transfer report (:class:`~fenics_plast.remeshing.transfer.TransferReport`),
+    the jump of the one-column outputs across the remesh (``jump``: {output: (before, after)}) and, in
+    explicit runs, of the kinetic and elastic energy (``energy_jump``: {energy: (before, after)} [J])."""
     number: int
     at: float
     reason: str
@@ -57,9 +58,10 @@ class RemeshRecord:
     transfer_s: float = 0.0
     rebuild_s: float = 0.0
     equilibrium_s: float = 0.0
-    equilibrium_iterations: int = 0
+    equilibrium_iterations: int | None = None
     transfer: dict = field(default_factory=dict)
     jump: dict = field(default_factory=dict)
+    energy_jump: dict = field(default_factory=dict)
 
     @property
     def seconds(self) -> float:
@@ -67,11 +69,12 @@ class RemeshRecord:
 
     def line(self) -> str:
         """The record in one log line."""
-        jumps = ", ".join(f"{k} {a:.5g} -> {b:.5g}" for k, (a, b) in self.jump.items())
+        jumps = ", ".join(f"{k} {a:.5g} -> {b:.5g}" for k, (a, b) in {**self.energy_jump, **self.jump}.items())
+        equilibrium = ("" if self.equilibrium_iterations is None else
+                       f", equilibrium in {self.equilibrium_iterations} Newton iterations")
         return (f"remesh {self.number} at {self.at:.6g} ({self.reason}): {self.old_cells} -> {self.new_cells} cells, "
-                f"worst scaled Jacobian {self.old_quality[0]:.3g} -> {self.new_quality[0]:.3g}, equilibrium in "
-                f"{self.equilibrium_iterations} Newton iterations, {self.seconds:.2f} s"
-                + (f"; {jumps}" if jumps else ""))
+                f"worst scaled Jacobian {self.old_quality[0]:.3g} -> {self.new_quality[0]:.3g}{equilibrium}, "
+                f"{self.seconds:.2f} s" + (f"; {jumps}" if jumps else ""))
 
 
 def outline_corners(out, corner_deg: float) -> np.ndarray:
@@ -216,7 +219,7 @@ class Remesher:
             (v0, f0), (v1, f1) = volumes
             out.update(volume_initial_mm3=v0, volume_final_mm3=v1, volume_change=(v1 - v0) / v0,
                        volume_change_elastic=(v1 - f1) / v0, volume_change_unexplained=(f1 - f0) / f0)
-        out["remesh_records"] = [{k: v for k, v in asdict(r).items()} for r in self.records]
+        out["remesh_records"] = [{k: v for k, v in asdict(r).items() if v is not None} for r in self.records]
         return out
 
 
