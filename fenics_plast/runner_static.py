@@ -239,7 +239,7 @@ def remeshed(problem, comm, b, remesher, reason, quantities, log=None, progress=
     transfer.nodal_function(total, new_total)
     nb.u_before = new_total.x.array.copy()
     nb.body.X = nb.body.X - nb.u_before.reshape(nb.body.X.shape)
-    nb.group_facets = new.group_facets
+    nb.group_facets, nb.remesh_record, nb.since = new.group_facets, new.record, t
     s2 = nb.solver
     s2.qmap.set_state(state)
     for k in ("increments", "cutbacks", "linesearch_retries", "total_iterations", "total_iterations_failed",
@@ -273,6 +273,45 @@ def remeshed(problem, comm, b, remesher, reason, quantities, log=None, progress=
     rec.new_quality = remesher.fresh = (q.min_scaled_jacobian, q.max_angle_deg)
     s.close()
     return nb, rec, before
+
+
+def _remesh_checkpoint(b, remesher) -> dict:
+    """What a checkpoint of a remeshed body holds besides the solver's state (JSON-able, rank 0's): the
+    current mesh (:attr:`fenics_plast.remeshing.new_mesh.Remeshed.record`), the load it was made at, the
+    contact penalties and the remesher's records."""
+    return dict(record=b.remesh_record, since=b.since, penalties={n: p.penalty for n, p in b.pairs.items()},
+                remesher=remesher.state_dict())
+
+
+def _remesh_keyed(b) -> dict:
+    """The checkpoint's node values of a remeshed body: the displacement carried from the first mesh."""
+    from fenics_plast.checkpoint import Keyed, dof_keys
+    n = b.Vc.dofmap.index_map.size_local * b.Vc.dofmap.index_map_bs
+    return dict(u_before=Keyed(np.asarray(b.u_before)[:n], dof_keys(b.Vc)[:n]))
+
+
+def _resumed_build(problem, comm, b, saved, remesher, log, progress) -> SimpleNamespace:
+    """The build of a checkpoint written on a remeshed body (``saved``: the checkpoint): its mesh made
+    again (:func:`fenics_plast.remeshing.new_mesh.mesh_from_record`), the solver built on it as at the
+    remesh, the carried displacement and the remesher's records restored; ``b`` (the scene's mesh) is
+    closed. The caller loads the solver's state. Collective."""
+    from dolfinx import fem
+    from fenics_plast.checkpoint import dof_keys
+    from fenics_plast.remeshing.new_mesh import mesh_from_record
+    rm = saved["runner"]["remesh"]
+    new = mesh_from_record(comm, rm["record"])
+    b.solver.close()
+    nb = build_static(problem, comm, tuple(new), log=log, progress=progress, since=float(rm["since"]),
+                      penalties=rm["penalties"])
+    nb.group_facets, nb.remesh_record, nb.since = new.group_facets, new.record, float(rm["since"])
+    n = nb.Vc.dofmap.index_map.size_local * nb.Vc.dofmap.index_map_bs
+    u = fem.Function(nb.Vc)
+    u.x.array[:n] = saved["remesh_state"]["u_before"].take(dof_keys(nb.Vc)[:n])
+    u.x.scatter_forward()
+    nb.u_before = u.x.array.copy()
+    nb.body.X = nb.body.X - nb.u_before.reshape(nb.body.X.shape)
+    remesher.load_state(rm["remesher"])
+    return nb
 
 
 def _carry_contact_history(old_pairs, new_pairs, comm):
@@ -330,6 +369,11 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
         from fenics_plast.remeshing.remesher import Remesher
         remesher = Remesher(problem.remeshing, problem.mesh.geometry == "axisymmetric")
         remesher.initial_volumes = remesher.volumes(b.mesh, None, b.solver.qmap.degree, b.solver.qmap.state()["binv"])
+    energy = None
+    if any(o.quantity == "energy" for o in problem.outputs.values()):
+        from fenics_plast.static_energy import StaticEnergy
+        energy = StaticEnergy(b, problem.mesh.geometry == "axisymmetric")
+        b.body.energies = energy.energies
     run = SimpleNamespace(b=b, quantities=Quantities(problem.outputs, b.body, b.facet_tags, b.groups, b.reactions),
                           xf=None, remesh_reason="")
     cells = b.mesh.topology.index_map(b.mesh.topology.dim).size_global
@@ -337,9 +381,18 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
                f"linear solver {b.solver.linear_solver_text}, "
                f"physics {', '.join(problem.active_physics) or 'elastic'}, set-up {time.perf_counter() - t_setup:.1f} s")
 
-    run.xf = open_fields(problem, output, comm, b.mesh)
     fields = {}                 # the state's cell means (QuadratureMap.fields), then von_mises_stress
     state = dict(count=0)
+    ck = checkpointer(problem, output, comm)
+    saved = ck.load() if ck is not None and ck.resuming else None
+    if saved is not None and saved["runner"].get("remesh"):
+        # a checkpoint of a remeshed body: its mesh again, the solver built on it
+        b = _resumed_build(problem, comm, b, saved, remesher, output.log, progress)
+        if energy is not None:
+            energy.remeshed(b, energy.elastic())
+            b.body.energies = energy.energies
+        run.b, run.quantities = b, Quantities(problem.outputs, b.body, b.facet_tags, b.groups, b.reactions)
+    run.xf = open_fields(problem, output, comm, b.mesh)
 
     def remesh_columns():
         return {} if remesher is None else dict(remeshes=remesher.count)
@@ -356,10 +409,8 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
         for f in fields.values():
             run.xf.write_function(f, t)
 
-    ck = checkpointer(problem, output, comm)
     loop = None
-    if ck is not None and ck.resuming:
-        saved = ck.load()
+    if saved is not None:
         b.solver.load_state(saved["solver"])
         if b.contact is not None:
             b.contact.load_state(saved["contact"])
@@ -368,20 +419,25 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
         quantities.history, quantities.times, state["count"] = r["history"], r["times"], r["count"]
         quantities.profiles = {k: [(t, np.asarray(a), np.asarray(b)) for t, a, b in v] for k, v in r["profiles"].items()}
         loop = saved["loop"]
+        if energy is not None:
+            energy.W_int, energy.W_tool, energy.W_bc, energy.W_c = r["energy"]
+            energy.resumed()
         output.log(f"{problem.name}: resumed at increment {len(b.solver.increments)}, t = {b.solver.lam_converged:.6g}")
     else:
         output.history(increment=0, time=0.0, **run.quantities.row(0.0), newton_iterations=0, **remesh_columns())
         write_fields(0.0)
 
     def on_checkpoint(solver, loop_state):
-        if remesher is not None and remesher.count:
-            return          # a checkpoint holds the first mesh's state only (issue 35: not yet across remeshes)
         quantities = run.quantities
+        remeshed_body = remesher is not None and remesher.count > 0
         ck.save(len(solver.increments), solver=solver.state_dict(),
                 contact=run.b.contact.state_dict() if run.b.contact is not None else {}, loop=loop_state,
                 runner=dict(history=quantities.history, times=quantities.times, count=state["count"],
+                            energy=[] if energy is None else [energy.W_int, energy.W_tool, energy.W_bc, energy.W_c],
                             profiles={k: [(t, list(a), list(b)) for t, a, b in v]
-                                      for k, v in quantities.profiles.items()}))
+                                      for k, v in quantities.profiles.items()},
+                            remesh=_remesh_checkpoint(run.b, remesher) if remeshed_body else None),
+                **({"remesh_state": _remesh_keyed(run.b)} if remeshed_body else {}))
     ck_args = {} if ck is None else dict(checkpoint_every=ck.every, on_checkpoint=on_checkpoint)
 
     def make_callback(step_end):
@@ -391,6 +447,8 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
                 contact.commit()
             rec = solver.increments[-1]
             t = solver.lam_converged
+            if energy is not None:
+                energy.update()
             output.history(increment=rec["increment"], time=t, **run.quantities.row(t),
                            newton_iterations=rec["iterations"], **remesh_columns())
             if abs(t - step_end) <= 1e-12 * max(1.0, step_end):
@@ -410,12 +468,16 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
         if stop:
             raise RunError(stop)
         old = run.b
+        elastic_old = energy.elastic() if energy is not None else 0.0
         from fenics_plast.remeshing.new_mesh import RemeshError
         try:
             nb, rec, before = remeshed(problem, comm, old, remesher, reason, run.quantities, log=output.log,
                                        progress=progress)
         except RemeshError as e:
             raise RunError(f"remesh {remesher.count} at t = {old.solver.lam_converged:.6g} failed: {e}") from None
+        if energy is not None:
+            energy.remeshed(nb, elastic_old)
+            nb.body.energies = energy.energies
         q = Quantities(problem.outputs, nb.body, nb.facet_tags, nb.groups, nb.reactions)
         q.history, q.times, q.profiles = run.quantities.history, run.quantities.times, run.quantities.profiles
         after = _one_column_values(q, nb.solver.lam_converged)
@@ -438,6 +500,13 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
                    linesearch_retries=len(s.linesearch_retries), element=problem.mesh.element,
                    final_time=s.lam_converged, jacobians=s.jacobians, solve_time_s=time.perf_counter() - t_solve,
                    solver_times_s={k: round(v, 4) for k, v in s.times.items()})
+        if energy is not None:
+            e = energy.energies()
+            res.update(energy_balance_error=e["balance_error"], contact_work_J=e["contact_work"] * 1e-3,
+                       tool_work_J=e["tool_work"] * 1e-3, plastic_dissipation_J=e["plastic"] * 1e-3)
+            w_p = energy.plastic_from_state()
+            if w_p is not None:
+                res["plastic_dissipation_from_eqps_J"] = w_p * 1e-3
         if remesher is not None:
             from fenics_plast.remeshing.quality import deformed_nodes
             last = remesher.volumes(run.b.mesh, deformed_nodes(s.displacement_function()), s.qmap.degree,

@@ -482,7 +482,8 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
     # expressions may name the one-column outputs declared before them; at_max_of any one-column one
     single_columns = [n for n, o in t["outputs"].items()
                       if column_count[n] == 1 and not getattr(kind(o.quantity), "DERIVED", False)]
-    ctx = dict(tools=tools, contacts=t["contact"], explicit=explicit, symbols=single_columns, end=analysis_end(t))
+    ctx = dict(tools=tools, contacts=t["contact"], explicit=explicit, symbols=single_columns, end=analysis_end(t),
+               loads=[n for n, b in t["boundary"].items() if b.type in ("traction", "pressure")])
     for n, o in t["outputs"].items():
         d = f"outputs.{n}"
         _kind_check(o, "check", d, ctx, v)

@@ -236,3 +236,31 @@ def test_cli_remeshing_two_ranks(billet_runs, tmp_path):
     assert abs(f2 - f1) <= 1e-6 * abs(f1)
     assert s2["max_die_force_kN"] == pytest.approx(s1["max_die_force_kN"], rel=1e-6)
     assert s2["bulge_radius_mm"] == pytest.approx(s1["bulge_radius_mm"], rel=1e-6)
+
+
+def test_kill_and_resume_across_remeshes(tmp_path):
+    """A run killed after its third checkpoint (increment 9: the body remeshed once, at increment 5)
+    resumes on the remeshed mesh (made again from the checkpoint's record) and ends as the run that
+    was not killed: same remeshes, cells, die force and energies, to round-off."""
+    sets = ("remeshing.size=1.25", "remeshing.every=5", "output.checkpoint_every=3", "outputs.e.quantity=energy",
+            "outputs.e.energy=all")
+    whole = run_billet(tmp_path / "whole", *sets)
+    args = [a for s in (*QUIET, *sets) for a in ("--set", s)]
+    import os
+    os.environ["FENICS_PLAST_KILL_AFTER_CHECKPOINTS"] = "3"
+    try:
+        p = cli("run", BILLET, "--out", tmp_path / "killed", *args)
+    finally:
+        del os.environ["FENICS_PLAST_KILL_AFTER_CHECKPOINTS"]
+    assert p.returncode != 0 and not (tmp_path / "killed" / "summary.json").exists()
+    p = cli("run", BILLET, *args, "--resume", tmp_path / "killed")
+    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
+    resumed = json.loads((tmp_path / "killed" / "summary.json").read_text())
+    final = [history(d)["die_force_kN"][-1] for d in (tmp_path / "killed", tmp_path / "whole")]
+    print(f"\nresumed from checkpoint {resumed['resumed_from_checkpoint']}: final die force {final[0]!r} vs "
+          f"{final[1]!r}, remeshes {resumed['remeshes']} vs {whole['remeshes']}")
+    assert resumed["resumed_from_checkpoint"] == 9 and whole["remesh_records"][0]["at"] < 0.5
+    assert resumed["remeshes"] == whole["remeshes"] == 2 and resumed["cells"] == whole["cells"]
+    assert final[0] == pytest.approx(final[1], rel=1e-9)
+    for k in ("max_die_force_kN", "bulge_radius_mm", "plastic_dissipation_J", "elastic_energy_J", "contact_work_J"):
+        assert resumed[k] == pytest.approx(whole[k], rel=1e-9, abs=1e-12), k

@@ -78,7 +78,10 @@ class Remeshed(tuple):
     with two attributes: ``group_facets`` = {facet group name: (k,) int32 local facet indices, every
     facet of the group (owned and ghost), also those in several groups}; ``info`` = {"cells": number
     of cells (all ranks), "curves": Gmsh curves, "subdivided": whether subdivision was needed,
-    "gmsh_s": time in Gmsh [s], "distribute_s": time in model_to_mesh [s], "area_outline" [mm^2]}."""
+    "gmsh_s": time in Gmsh [s], "distribute_s": time in model_to_mesh [s], "area_outline" [mm^2]}; after
+    :func:`mesh_outline` or :func:`mesh_from_record`, ``record`` (rank 0; None elsewhere): the mesh as plain
+    lists (nodes, element blocks, the curves' groups, the groups' and regions' tags), what
+    :func:`mesh_from_record` makes it again from (a checkpoint of a remeshed run)."""
 
     def __new__(cls, mesh, cell_tags, facet_tags, groups, group_facets, info):
         self = super().__new__(cls, (mesh, cell_tags, facet_tags, groups))
@@ -326,15 +329,27 @@ def _compact_model(name, curve_groups, surface_groups):
                 for t, nd in zip(types, nodes):
                     blocks.append((dim, tag, int(t), np.asarray(nd, dtype=np.int64)))
     used = np.unique(np.concatenate([b[3] for b in blocks]))
-    gmsh.model.add(name + "-compact")
+    rows = np.array([index[int(u)] for u in used])
+    record = dict(nodes=xyz[rows, :2].tolist(),
+                  blocks=[(dim, tag, t, (np.searchsorted(used, nd) + 1).tolist()) for dim, tag, t, nd in blocks])
+    _add_model(name + "-compact", record)
+    return record
+
+
+def _add_model(name, record):
+    """A discrete Gmsh model ``name`` (made current, rank 0) of a mesh ``record``: ``nodes`` (n, 2) [mm]
+    numbered 1..n as model_to_mesh requires, ``blocks`` [(dim, physical tag, Gmsh element type, node
+    numbers)], each block one discrete entity in its physical group."""
+    gmsh.model.add(name)
+    xyz = np.zeros((len(record["nodes"]), 3))
+    xyz[:, :2] = np.asarray(record["nodes"], dtype=float).reshape(-1, 2)
     members: dict = {}
-    for new_tag, (dim, tag, t, nd) in enumerate(blocks, start=1):
-        gmsh.model.addDiscreteEntity(dim, new_tag)
-        if new_tag == 1:         # the nodes numbered 1..n, as model_to_mesh requires
-            rows = np.array([index[int(u)] for u in used])
-            gmsh.model.mesh.addNodes(dim, 1, list(range(1, len(used) + 1)), xyz[rows].reshape(-1).tolist())
-        gmsh.model.mesh.addElementsByType(new_tag, t, [], (np.searchsorted(used, nd) + 1).tolist())
-        members.setdefault((dim, tag), []).append(new_tag)
+    for new_tag, (dim, tag, t, nd) in enumerate(record["blocks"], start=1):
+        gmsh.model.addDiscreteEntity(int(dim), new_tag)
+        if new_tag == 1:
+            gmsh.model.mesh.addNodes(int(dim), 1, list(range(1, len(xyz) + 1)), xyz.reshape(-1).tolist())
+        gmsh.model.mesh.addElementsByType(new_tag, int(t), [], [int(v) for v in nd])
+        members.setdefault((int(dim), int(tag)), []).append(new_tag)
     for (dim, tag), ents in members.items():
         gmsh.model.addPhysicalGroup(dim, ents, tag)
 
@@ -357,7 +372,7 @@ def mesh_outline(comm, out: Outline, h: float, h_min: float | None = None, refin
     if curves not in ("lines", "splines"):
         raise ValueError(f"curves must be 'lines' or 'splines', got {curves!r}")
     radius = 2.0 * h if radius is None else radius
-    error, chain_names, info = None, {}, {}
+    error, chain_names, info, record = None, {}, {}, None
     t0 = time.perf_counter()
     with gmsh_session(log=True):
         gmsh.model.add(name)
@@ -381,8 +396,10 @@ def mesh_outline(comm, out: Outline, h: float, h_min: float | None = None, refin
                     if c.names:
                         curve_groups[ci + 1] = entities[ci]
                         chain_names[ci + 1] = sorted(c.names)
-                _compact_model(name, curve_groups, {int(r): t for r, t in surfaces.items()})
+                record = _compact_model(name, curve_groups, {int(r): t for r, t in surfaces.items()})
                 info = dict(curves=sum(len(v) for v in entities.values()), subdivided=subdivided)
+                record.update(chain_names={int(k): v for k, v in chain_names.items()}, facet_groups=out.facet_groups,
+                              regions=out.regions)
             except RemeshError as e:
                 error = str(e)
             except Exception as e:      # noqa: BLE001 - gmsh raises plain Exception
@@ -391,26 +408,52 @@ def mesh_outline(comm, out: Outline, h: float, h_min: float | None = None, refin
         error, chain_names, info = comm.bcast((error, chain_names, info), root=0)
         if error is not None:
             raise RemeshError(error)
-        t1 = time.perf_counter()
-        mesh, cell_tags, ft = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=2)
-        t2 = time.perf_counter()
+        remeshed = _distributed(comm, name, out.facet_groups, out.regions, chain_names, info, t0)
+    remeshed.info.update(area_outline=comm.bcast(out.area, root=0))
+    remeshed.record = record if comm.rank == 0 else None
+    return remeshed
+
+
+def mesh_from_record(comm, record, name: str = "remeshed") -> Remeshed:
+    """The mesh a :func:`mesh_outline` made, again, from its ``record`` (:attr:`Remeshed.record`, rank 0's;
+    the other ranks may pass None): the same nodes, cells, groups and, on as many ranks, the same
+    distribution, so that a checkpoint's values keyed by input node and cell index find their places
+    (a resumed run on a remeshed body). Collective."""
+    t0 = time.perf_counter()
+    record = comm.bcast(record if comm.rank == 0 else None, root=0)
+    chain_names = {int(k): v for k, v in record["chain_names"].items()}
+    with gmsh_session(log=True):
+        gmsh.model.add(name)
+        if comm.rank == 0:
+            _add_model(name + "-compact", record)
+        remeshed = _distributed(comm, name, record["facet_groups"], record["regions"], chain_names, {}, t0)
+    remeshed.record = record if comm.rank == 0 else None
+    return remeshed
+
+
+def _distributed(comm, name, facet_groups, regions, chain_names, info, t0) -> Remeshed:
+    """The current Gmsh model (rank 0) as a distributed dolfinx mesh with :func:`mesh_outline`'s tags and
+    groups (``chain_names``: {physical curve tag: its facet groups}). Collective, inside the Gmsh session."""
+    t1 = time.perf_counter()
+    mesh, cell_tags, ft = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=2)
+    t2 = time.perf_counter()
     mesh.name = name
     cell_tags.name = "cell_tags"
-    groups = {n: (1, int(t)) for n, t in out.facet_groups.items()}
-    groups.update({n: (2, int(t)) for n, t in out.regions.items()})
+    groups = {n: (1, int(t)) for n, t in facet_groups.items()}
+    groups.update({n: (2, int(t)) for n, t in regions.items()})
     group_facets, primary = {}, {}
     for chain, names in chain_names.items():
-        primary[chain] = min(out.facet_groups[n] for n in names)
+        primary[chain] = min(facet_groups[n] for n in names)
     indices = np.asarray(ft.indices, dtype=np.int32)
     values = np.asarray(ft.values)
-    for n in out.facet_groups:
+    for n in facet_groups:
         chains = [c for c, names in chain_names.items() if n in names]
         group_facets[n] = indices[np.isin(values, chains)]
     new_values = np.array([primary[int(v)] for v in values], dtype=np.int32)
     facet_tags = meshtags(mesh, 1, indices, new_values)
     facet_tags.name = "facet_tags"
     cells = comm.allreduce(mesh.topology.index_map(2).size_local)
-    info.update(cells=cells, gmsh_s=t1 - t0, distribute_s=t2 - t1, area_outline=comm.bcast(out.area, root=0))
+    info = dict(info, cells=cells, gmsh_s=t1 - t0, distribute_s=t2 - t1)
     return Remeshed(mesh, cell_tags, facet_tags, groups, group_facets, info)
 
 

@@ -209,6 +209,20 @@ class Remesher:
         self.increments_since = 0
         return rec
 
+    def state_dict(self) -> dict:
+        """What a checkpoint keeps of this remesher (JSON-able): its records, the last new mesh's worst
+        cell, the increments since, the first mesh's volumes."""
+        return dict(records=[asdict(r) for r in self.records], fresh=self.fresh, increments_since=self.increments_since,
+                    initial_volumes=getattr(self, "initial_volumes", None))
+
+    def load_state(self, d: dict) -> None:
+        """Restore :meth:`state_dict`."""
+        self.records = [RemeshRecord(**r) for r in d["records"]]
+        self.fresh = None if d["fresh"] is None else tuple(d["fresh"])
+        self.increments_since = int(d["increments_since"])
+        if d.get("initial_volumes") is not None:
+            self.initial_volumes = tuple(d["initial_volumes"])
+
     def summary(self, volumes=None) -> dict:
         """summary.json's entries: ``remeshes``, ``remesh_time_s``, per remesh its record, and with
         ``volumes`` ((first volume, its stress-free volume), (last volume, its stress-free volume)

@@ -1,4 +1,7 @@
-"""energy: one of the explicit solver's energies [J] (or all five), or the relative balance error."""
+"""energy: one of the energies [J] (or all five), or the relative balance error: the explicit solver's, or in
+static runs :class:`fenics_plast.static_energy.StaticEnergy`'s (kinetic 0; tool and boundary work, contact
+work, internal work, elastic energy, plastic dissipation; not with tractions, pressure or contact between two
+groups of the body, whose work it does not count)."""
 from __future__ import annotations
 
 from fenics_plast.scene_key import REQUIRED, Key
@@ -25,8 +28,13 @@ def columns(name, o):
 
 
 def check(d, o, ctx, fail):
-    if not ctx["explicit"]:
-        fail(f"{d}: energies are recorded in explicit analyses only")
+    if ctx["explicit"]:
+        return
+    if ctx["loads"]:
+        fail(f"{d}: static energies do not count the work of tractions and pressure (boundary.{ctx['loads'][0]})")
+    body_pairs = [n for n, c in ctx["contacts"].items() if c.get("master") is not None]
+    if body_pairs:
+        fail(f"{d}: static energies do not count contact between two groups of the body (contact.{body_pairs[0]})")
 
 
 def value(name, o, q, time, row):
