@@ -225,7 +225,7 @@ def remeshed_explicit(problem, comm, b, remesher, reason, quantities, log=None) 
     transfer.nodal_function(total, new_total)
     nb.u_before = new_total.x.array.copy()
     nb.body.X = nb.body.X - nb.u_before.reshape(nb.body.X.shape)
-    nb.group_facets = new.group_facets
+    nb.group_facets, nb.remesh_record = new.group_facets, new.record
     v = fem.Function(s2.V)
     transfer.nodal_function(s.v, v)
     s2.set_velocity(v.x.array.reshape(-1, s2.bs))
@@ -289,6 +289,17 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
     loop = None
     if ck is not None and ck.resuming:
         saved = ck.load()
+        if saved["runner"].get("remesh"):
+            # a checkpoint of a remeshed body: its mesh again, the solver built on it
+            from fenics_plast.remeshing.resume import restore_u_before, resumed_mesh
+            new, _ = resumed_mesh(comm, saved, remesher)
+            nb = build_explicit(problem, comm, tuple(new), log=output.log)
+            restore_u_before(nb, nb.solver.V, saved, new)
+            if run.xf is not None:
+                run.xf.close()
+                run.xf = open_fields(problem, output, comm, nb.mesh)
+            b = run.b = nb
+            run.quantities = Quantities(problem.outputs, nb.body, nb.facet_tags, nb.groups)
         b.solver.load_state(saved["solver"])
         r = saved["runner"]
         quantities = run.quantities
@@ -297,10 +308,14 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
         output.log(f"{problem.name}: resumed at step {b.solver.step_count}, t = {b.solver.t / US:.4g} us")
 
     def on_checkpoint(s, loop_state):
+        entry, keyed = None, {}
         if remesher is not None and remesher.count:
-            return          # a checkpoint holds the first mesh's state only (issue 35: not yet across remeshes)
+            from fenics_plast.remeshing.resume import checkpoint_groups
+            entry, keyed = checkpoint_groups(run.b, remesher, s.V)
+            keyed = {"remesh_state": keyed}
         ck.save(s.step_count, solver=s.state_dict(), loop=loop_state,
-                runner=dict(history=run.quantities.history, times=run.quantities.times, row=state["row"]))
+                runner=dict(history=run.quantities.history, times=run.quantities.times, row=state["row"],
+                            remesh=entry), **keyed)
 
     scaling = ana.mass_scaling_dt > 0.0
 

@@ -275,42 +275,19 @@ def remeshed(problem, comm, b, remesher, reason, quantities, log=None, progress=
     return nb, rec, before
 
 
-def _remesh_checkpoint(b, remesher) -> dict:
-    """What a checkpoint of a remeshed body holds besides the solver's state (JSON-able, rank 0's): the
-    current mesh (:attr:`fenics_plast.remeshing.new_mesh.Remeshed.record`), the load it was made at, the
-    contact penalties and the remesher's records."""
-    return dict(record=b.remesh_record, since=b.since, penalties={n: p.penalty for n, p in b.pairs.items()},
-                remesher=remesher.state_dict())
-
-
-def _remesh_keyed(b) -> dict:
-    """The checkpoint's node values of a remeshed body: the displacement carried from the first mesh."""
-    from fenics_plast.checkpoint import Keyed, dof_keys
-    n = b.Vc.dofmap.index_map.size_local * b.Vc.dofmap.index_map_bs
-    return dict(u_before=Keyed(np.asarray(b.u_before)[:n], dof_keys(b.Vc)[:n]))
-
-
 def _resumed_build(problem, comm, b, saved, remesher, log, progress) -> SimpleNamespace:
     """The build of a checkpoint written on a remeshed body (``saved``: the checkpoint): its mesh made
-    again (:func:`fenics_plast.remeshing.new_mesh.mesh_from_record`), the solver built on it as at the
-    remesh, the carried displacement and the remesher's records restored; ``b`` (the scene's mesh) is
-    closed. The caller loads the solver's state. Collective."""
-    from dolfinx import fem
-    from fenics_plast.checkpoint import dof_keys
-    from fenics_plast.remeshing.new_mesh import mesh_from_record
-    rm = saved["runner"]["remesh"]
-    new = mesh_from_record(comm, rm["record"])
+    again (:mod:`fenics_plast.remeshing.resume`), the solver built on it as at the remesh (prescribed
+    displacements from the remesh load, the contact penalties kept), the carried displacement and the
+    remesher's records restored; ``b`` (the scene's mesh) is closed. The caller loads the solver's state.
+    Collective."""
+    from fenics_plast.remeshing.resume import restore_u_before, resumed_mesh
+    new, entry = resumed_mesh(comm, saved, remesher)
     b.solver.close()
-    nb = build_static(problem, comm, tuple(new), log=log, progress=progress, since=float(rm["since"]),
-                      penalties=rm["penalties"])
-    nb.group_facets, nb.remesh_record, nb.since = new.group_facets, new.record, float(rm["since"])
-    n = nb.Vc.dofmap.index_map.size_local * nb.Vc.dofmap.index_map_bs
-    u = fem.Function(nb.Vc)
-    u.x.array[:n] = saved["remesh_state"]["u_before"].take(dof_keys(nb.Vc)[:n])
-    u.x.scatter_forward()
-    nb.u_before = u.x.array.copy()
-    nb.body.X = nb.body.X - nb.u_before.reshape(nb.body.X.shape)
-    remesher.load_state(rm["remesher"])
+    nb = build_static(problem, comm, tuple(new), log=log, progress=progress, since=float(entry["since"]),
+                      penalties=entry["penalties"])
+    nb.since = float(entry["since"])
+    restore_u_before(nb, nb.Vc, saved, new)
     return nb
 
 
@@ -430,14 +407,19 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
     def on_checkpoint(solver, loop_state):
         quantities = run.quantities
         remeshed_body = remesher is not None and remesher.count > 0
+        remesh_entry = remesh_state = None
+        if remeshed_body:
+            from fenics_plast.remeshing.resume import checkpoint_groups
+            remesh_entry, remesh_state = checkpoint_groups(run.b, remesher, run.b.Vc, since=run.b.since,
+                                                           penalties={n: p.penalty for n, p in run.b.pairs.items()})
         ck.save(len(solver.increments), solver=solver.state_dict(),
                 contact=run.b.contact.state_dict() if run.b.contact is not None else {}, loop=loop_state,
                 runner=dict(history=quantities.history, times=quantities.times, count=state["count"],
                             energy=[] if energy is None else [energy.W_int, energy.W_tool, energy.W_bc, energy.W_c],
                             profiles={k: [(t, list(a), list(b)) for t, a, b in v]
                                       for k, v in quantities.profiles.items()},
-                            remesh=_remesh_checkpoint(run.b, remesher) if remeshed_body else None),
-                **({"remesh_state": _remesh_keyed(run.b)} if remeshed_body else {}))
+                            remesh=remesh_entry),
+                **({"remesh_state": remesh_state} if remeshed_body else {}))
     ck_args = {} if ck is None else dict(checkpoint_every=ck.every, on_checkpoint=on_checkpoint)
 
     def make_callback(step_end):

@@ -6,6 +6,7 @@ which without remeshing stops near 32 µs on a folded cell (the stagnation flow 
   0.74 %), and its history's ``remeshes`` column counts them; the volume with the elastic dilatation
   taken out stays the bar's (the new meshes keep the old outline). The same bar without [remeshing]
   stops at a fold before 40 µs.
+* Killed after its fourth checkpoint (four remeshes made) and resumed: the same results to the last digit.
 * slow: the same on 2 ranks (the final length to 1e-6, the same remeshes), and two sizes (0.25 and
   0.125 mm) within 1 % in final length and radius.
 """
@@ -77,3 +78,28 @@ def test_taylor_400_two_sizes(tmp_path):
         print(f"\n{k}: {coarse[k]:.4f} (0.25 mm) vs {fine[k]:.4f} (0.125 mm): {100 * d:.2f} %")
         assert d < 0.01
     assert max(coarse["energy_balance_error"], fine["energy_balance_error"]) < 0.01
+
+
+def test_taylor_400_kill_and_resume_across_remeshes(tmp_path):
+    """Killed after its fourth checkpoint (about 22 µs, four remeshes made), the run resumes on the
+    mesh of the checkpoint and ends as the run that was not killed, to the last digit."""
+    import json
+    import os
+    import subprocess
+    from scene_runs import FP
+    sets = FAST + ("remeshing.size=0.5", "output.checkpoint_every=500")
+    whole = run_scene(TAYLOR, tmp_path / "whole", *sets)
+    args = [a for s in sets for a in ("--set", s)]
+    env = dict(os.environ, FENICS_PLAST_PROGRESS="off")
+    p = subprocess.run(FP + ["run", str(TAYLOR), "--out", str(tmp_path / "killed"), *args], cwd=ROOT, timeout=600,
+                       env=dict(env, FENICS_PLAST_KILL_AFTER_CHECKPOINTS="4"), capture_output=True, text=True)
+    assert p.returncode != 0 and not (tmp_path / "killed" / "summary.json").exists()
+    p = subprocess.run(FP + ["run", str(TAYLOR), *args, "--resume", str(tmp_path / "killed")], cwd=ROOT, timeout=600,
+                       env=env, capture_output=True, text=True)
+    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
+    resumed = json.loads((tmp_path / "killed" / "summary.json").read_text())
+    # the checkpoint resumed from was written after the first remesh (at 5 us, step ~500)
+    assert resumed["resumed_from_checkpoint"] > 1000 and whole["remesh_records"][0]["at"] < 10.0
+    assert resumed["remeshes"] == whole["remeshes"] and resumed["cells"] == whole["cells"]
+    for k in ("length_mm", "radius_mm", "max_eqps", "energy_balance_error"):
+        assert resumed[k] == whole[k], k
