@@ -209,7 +209,7 @@ def remeshed_explicit(problem, comm, b, remesher, reason, quantities, log=None) 
     t = s.t
     x = deformed_nodes(s.u)
     rec = remesher.start(t / US, reason, s.cells_global, remesher.quality(b.mesh, x))
-    before = _one_column_values(quantities, t / US)
+    before = quantities.one_column_values(t / US)
     e_old = s.energies()
     clock = timed()
     new = remesher.new_mesh(b.mesh, b.cell_tags, b.facet_tags, b.groups, x, getattr(b, "group_facets", None))
@@ -247,18 +247,6 @@ def remeshed_explicit(problem, comm, b, remesher, reason, quantities, log=None) 
     rec.energy_jump = dict(kinetic_J=(e_old["kinetic"] * 1e-3, e_new["kinetic"] * 1e-3),
                            elastic_J=(e_old["elastic"] * 1e-3, e_new["elastic"] * 1e-3))
     return nb, rec, before
-
-
-def _one_column_values(quantities, t) -> dict:
-    """{output name: value} of the one-column outputs (not expressions, not profiles) at ``t``."""
-    from fenics_plast.quantities.registry import KINDS
-    out = {}
-    for name, o in quantities.outputs.items():
-        if o.quantity == "expression" or getattr(KINDS[o.quantity], "PROFILE", False) or \
-                len(quantities.columns[name]) != 1:
-            continue
-        out[name] = float(quantities.value(name, o, t, {})[0])
-    return out
 
 
 def run_explicit(problem, output, comm, mesh_data=None) -> dict:
@@ -367,7 +355,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
             raise RunError(f"remesh {remesher.count} at t = {run.b.solver.t / US:.4g} us failed: {e}") from None
         q = Quantities(problem.outputs, nb.body, nb.facet_tags, nb.groups)
         q.history, q.times, q.profiles = run.quantities.history, run.quantities.times, run.quantities.profiles
-        after = _one_column_values(q, nb.solver.t / US)
+        after = q.one_column_values(nb.solver.t / US)
         rec.jump = {k: (before[k], after[k]) for k in before}
         run.b, run.quantities = nb, q
         output.log(rec.line())

@@ -223,7 +223,7 @@ def remeshed(problem, comm, b, remesher, reason, quantities, log=None, progress=
     x = deformed_nodes(u)
     cells = b.mesh.topology.index_map(b.mesh.topology.dim).size_global
     rec = remesher.start(t, reason, cells, remesher.quality(b.mesh, x))
-    before = _one_column_values(quantities, t)
+    before = quantities.one_column_values(t)
     clock = timed()
     fits = {spec.group: _tool_gap(b.tools[spec.tool], t) for spec in problem.contact.values() if spec.get("tool")}
     new = remesher.new_mesh(b.mesh, b.cell_tags, b.facet_tags, b.groups, x, getattr(b, "group_facets", None),
@@ -315,18 +315,6 @@ def _tool_gap(tool, t):
     """The gap function of ``tool`` (a :class:`fenics_plast.tools.Tool` or meshed tool) at load t for
     :func:`fenics_plast.remeshing.new_mesh.fitted_chain`: points (k, 2) [mm] -> (gap (k,), normal (k, 2))."""
     return lambda x: tool.gap_np(x, t)
-
-
-def _one_column_values(quantities, t) -> dict:
-    """{output name: value} of the one-column outputs (not expressions, not profiles) at ``t``."""
-    from fenics_plast.quantities.registry import KINDS
-    out = {}
-    for name, o in quantities.outputs.items():
-        if o.quantity == "expression" or getattr(KINDS[o.quantity], "PROFILE", False) or \
-                len(quantities.columns[name]) != 1:
-            continue
-        out[name] = float(quantities.value(name, o, t, {})[0])
-    return out
 
 
 def run_static(problem, output, comm, mesh_data=None) -> dict:
@@ -462,7 +450,7 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
             nb.body.energies = energy.energies
         q = Quantities(problem.outputs, nb.body, nb.facet_tags, nb.groups, nb.reactions)
         q.history, q.times, q.profiles = run.quantities.history, run.quantities.times, run.quantities.profiles
-        after = _one_column_values(q, nb.solver.lam_converged)
+        after = q.one_column_values(nb.solver.lam_converged)
         rec.jump = {k: (before[k], after[k]) for k in before}
         run.b, run.quantities = nb, q
         output.log(rec.line())

@@ -70,6 +70,16 @@ class Quantities:
         self.times.append(float(time))
         return out
 
+    def one_column_values(self, time: float) -> dict[str, float]:
+        """{output name: value} of the one-column outputs (not expressions, not profiles) at ``time``,
+        measured without being recorded (the jump of each output across a remesh)."""
+        out = {}
+        for name, o in self.outputs.items():
+            if o.quantity == "expression" or getattr(KINDS[o.quantity], "PROFILE", False) or len(self.columns[name]) != 1:
+                continue
+            out[name] = float(self.value(name, o, time, {})[0])
+        return out
+
     # -- profiles ---------------------------------------------------------------------------
     def record_profiles(self, time: float):
         for name in self.profiles:
