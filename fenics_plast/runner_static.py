@@ -248,6 +248,8 @@ def remeshed(problem, comm, b, remesher, reason, quantities, log=None, progress=
     for k, v in s.times.items():
         s2.times[k] = s2.times.get(k, 0.0) + v
     s2.lam_converged = t
+    if nb.contact is not None:          # slips count from here: the tools' motion up to t is not slip
+        nb.contact.lam_c.value = t
     _carry_contact_history(b.pairs, nb.pairs, comm)
     rec.rebuild_s = clock.lap()
     its_before = s2.total_iterations
