@@ -8,7 +8,7 @@ Coulomb friction 0.1).
    frictionless billet and the tutorial's (mu = 0.1). The die force within 0.5 % and its radial (friction)
    force within 5 %: held without friction (measured -0.06 % after 10 remeshes) and with mu = 0.1, where
    the contact's committed tractions (the stick state) are carried to the new nodes
-   (``runner_static._carry_contact_history``); reset instead, each remesh at rest lost 12-24 % of the
+   (``runner_static_remesh._carry_contact_history``); reset instead, each remesh at rest lost 12-24 % of the
    die's friction force (radial die force -21.3 -> -2.4 kN in 10 remeshes, press force -5.2 %).
 2. Scene checks: no [remeshing] -> ``problem.remeshing is None``; a 3-D scene, refine_size > size and a
    boundary value of x, y, z are refused by the CLI (exit 2, the key named, nothing written).
@@ -69,7 +69,8 @@ def remesh_series(friction):
     from fenics_plast.quantities import Quantities
     from fenics_plast.remeshing.quality import deformed_nodes
     from fenics_plast.remeshing.remesher import Remesher
-    from fenics_plast.runner_static import build_static, remeshed
+    from fenics_plast.runner_static import build_static
+    from fenics_plast.runner_static_remesh import remeshed
     p = load_problem(BILLET, ["remeshing.size=1.25", "analysis.increments=10", f"contact.die.friction={friction}",
                               "outputs.die_radial.quantity=tool_force", "outputs.die_radial.tool=die",
                               "outputs.die_radial.component=r"])
@@ -94,7 +95,7 @@ def remesh_series(friction):
     q, first = values(b)
     after, records = [], []
     for _ in range(REMESHES):
-        b, rec, _before = remeshed(p, COMM, b, remesher, "test", q)
+        b, rec, _before = remeshed(p, COMM, b, remesher, "test", q, build_static)
         assert b.solver.lam_converged == pytest.approx(0.5, abs=1e-12)
         q, v = values(b)
         after.append(v)

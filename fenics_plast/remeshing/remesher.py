@@ -1,6 +1,6 @@
 """When and how a running 2-D analysis is meshed anew: the part of remeshing that does not depend on
-the solver (issue 35; the static runner rebuilds its solver on the new mesh,
-:func:`fenics_plast.runner_static.remeshed`).
+the solver (issue 35; the runners rebuild their solvers on the new mesh,
+:func:`fenics_plast.runner_static_remesh.remeshed`, :func:`fenics_plast.runner_explicit_remesh.remeshed_explicit`).
 
 A :class:`Remesher` is built from the scene's ``[remeshing]`` table. After every converged increment
 the runner asks :meth:`Remesher.due` with the deformed node positions: the worst cell's scaled

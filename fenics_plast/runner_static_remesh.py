@@ -1,0 +1,131 @@
+"""The static runner's remeshing (issue 35): a run built by :func:`fenics_plast.runner_static.build_static`
+on a new mesh of its deformed outline (:func:`remeshed`: the state transferred, the solver built anew at
+the same load, the contact history carried, equilibrium restored), and the build of a checkpoint written
+on a remeshed body (:func:`resumed_build`). The decision and the new mesh are the solver-independent
+:class:`fenics_plast.remeshing.remesher.Remesher`'s; :func:`fenics_plast.runner_static.run_static` calls
+these between its load steps' increments.
+"""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from fenics_plast.errors import RunError
+
+__all__ = ["remeshed", "resumed_build"]
+
+
+def remeshed(problem, comm, b, remesher, reason, quantities, build, log=None, progress=None) -> SimpleNamespace:
+    """The run ``b`` (:func:`build_static`'s, at a converged load t) on a new mesh of its deformed outline:
+    the quadrature state transferred, the solver built anew (prescribed displacements counted from t,
+    the contact pairs' penalties kept, their stick points reset: friction builds up again from the next
+    increment's slip), equilibrium restored at the same load (one Newton solve, no load change) and the
+    jump of the one-column outputs across the remesh recorded (``quantities``: the old mesh's; ``build``:
+    :func:`fenics_plast.runner_static.build_static`, passed in: the runner imports this module).
+    Returns the new build with ``u_before`` (the displacement from the first mesh's reference at its
+    nodes, so that the outputs keep measuring from there) and ``group_facets``. Collective; RunError
+    when equilibrium is not found."""
+    from dolfinx import fem
+    from fenics_plast.remeshing.quality import deformed_nodes
+    from fenics_plast.remeshing.remesher import timed
+    s = b.solver
+    t = s.lam_converged
+    u = s.displacement_function()
+    x = deformed_nodes(u)
+    cells = b.mesh.topology.index_map(b.mesh.topology.dim).size_global
+    rec = remesher.start(t, reason, cells, remesher.quality(b.mesh, x))
+    before = quantities.one_column_values(t)
+    clock = timed()
+    fits = {spec.group: _tool_gap(b.tools[spec.tool], t) for spec in problem.contact.values() if spec.get("tool")}
+    new = remesher.new_mesh(b.mesh, b.cell_tags, b.facet_tags, b.groups, x, getattr(b, "group_facets", None),
+                            fits=fits)
+    rec.mesh_s = clock.lap()
+    state, rec.transfer, transfer = remesher.transfer(b.mesh, x, s.qmap.degree, s.qmap.state(), new[0])
+    total = fem.Function(u.function_space)
+    total.x.array[:] = u.x.array + b.u_before
+    rec.transfer_s = clock.lap()
+    nb = build(problem, comm, tuple(new), log=log, progress=progress, since=t,
+                      penalties={n: p.penalty for n, p in b.pairs.items()})
+    new_total = fem.Function(nb.Vc)
+    transfer.nodal_function(total, new_total)
+    nb.u_before = new_total.x.array.copy()
+    nb.body.X = nb.body.X - nb.u_before.reshape(nb.body.X.shape)
+    nb.group_facets, nb.remesh_record, nb.since = new.group_facets, new.record, t
+    s2 = nb.solver
+    s2.qmap.set_state(state)
+    for k in ("increments", "cutbacks", "linesearch_retries", "total_iterations", "total_iterations_failed",
+              "jacobians", "force_scale", "roundoff_floor"):
+        setattr(s2, k, getattr(s, k))
+    for k, v in s.times.items():
+        s2.times[k] = s2.times.get(k, 0.0) + v
+    s2.lam_converged = t
+    if nb.contact is not None:          # slips count from here: the tools' motion up to t is not slip
+        nb.contact.lam_c.value = t
+    _carry_contact_history(b.pairs, nb.pairs, comm)
+    rec.rebuild_s = clock.lap()
+    its_before = s2.total_iterations
+    ok, its, why = s2.solve_increment(t)
+    if not ok:          # as the load stepping does: the same solve once more with the other line search
+        other = "bt" if s2.options["linesearch"] == "basic" else "basic"
+        s2.log(f"  remesh {rec.number}: retry the equilibrium with line search {other} ({why})")
+        s2.set_linesearch(other)
+        try:
+            ok, its, why = s2.solve_increment(t)
+        finally:
+            s2.set_linesearch(s2.options["linesearch"])
+    if not ok:
+        raise RunError(f"no equilibrium on the new mesh of remesh {rec.number} at t = {t:.6g} ({reason}): {why}, "
+                       f"|R| = {', '.join(f'{n:.3e}' for n in s2.norms[:4] + s2.norms[-3:])}")
+    s2.commit()
+    if nb.contact is not None:
+        nb.contact.commit()
+    rec.equilibrium_s = clock.lap()
+    rec.equilibrium_iterations = s2.total_iterations - its_before
+    rec.new_cells = nb.mesh.topology.index_map(nb.mesh.topology.dim).size_global
+    q = remesher.quality(nb.mesh, None)
+    rec.new_quality = remesher.fresh = (q.min_scaled_jacobian, q.max_angle_deg)
+    s.close()
+    return nb, rec, before
+
+
+def resumed_build(problem, comm, b, saved, remesher, build, log, progress) -> SimpleNamespace:
+    """The build of a checkpoint written on a remeshed body (``saved``: the checkpoint): its mesh made
+    again (:mod:`fenics_plast.remeshing.resume`), the solver built on it as at the remesh (prescribed
+    displacements from the remesh load, the contact penalties kept), the carried displacement and the
+    remesher's records restored; ``b`` (the scene's mesh) is closed; ``build``: as for :func:`remeshed`. The
+    caller loads the solver's state. Collective."""
+    from fenics_plast.remeshing.resume import restore_u_before, resumed_mesh
+    new, entry = resumed_mesh(comm, saved, remesher)
+    b.solver.close()
+    nb = build(problem, comm, tuple(new), log=log, progress=progress, since=float(entry["since"]),
+                      penalties=entry["penalties"])
+    nb.since = float(entry["since"])
+    restore_u_before(nb, nb.Vc, saved, new)
+    return nb
+
+
+def _carry_contact_history(old_pairs, new_pairs, comm):
+    """The committed traction, normal and pressure of each tool pair's nodes (the friction's stick state)
+    carried from the old nodes (at their current positions) to the new ones
+    (:func:`fenics_plast.remeshing.transfer.scattered_values`): friction held at the remesh load stays
+    held (reset, it would be lost at every remesh and rebuilt only by slip: 12-24 % of the die's
+    friction force a remesh at rest, measured in tests/test_remesh_static.py). Pairs between two groups
+    of the body start anew."""
+    from fenics_plast.remeshing.transfer import scattered_values
+    for name, new in new_pairs.items():
+        old = old_pairs.get(name)
+        if not (hasattr(old, "hist") and hasattr(new, "hist")):
+            continue
+        h = old.hist
+        x_old = old.X + old.solver.w.x.array[old.idx]
+        values = scattered_values(x_old[:, :2], np.concatenate([h.t_n, h.N_n, h.p_n[:, None]], axis=1),
+                                  new.X[:, :2], comm)
+        d = new.gdim
+        new.hist.store(values[:, :d], values[:, d:2 * d], values[:, 2 * d])
+
+
+def _tool_gap(tool, t):
+    """The gap function of ``tool`` (a :class:`fenics_plast.tools.Tool` or meshed tool) at load t for
+    :func:`fenics_plast.remeshing.new_mesh.fitted_chain`: points (k, 2) [mm] -> (gap (k,), normal (k, 2))."""
+    return lambda x: tool.gap_np(x, t)
