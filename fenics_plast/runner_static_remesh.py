@@ -65,21 +65,7 @@ def remeshed(problem, comm, b, remesher, reason, quantities, build, log=None, pr
     _carry_contact_history(b.pairs, nb.pairs, comm)
     rec.rebuild_s = clock.lap()
     its_before = s2.total_iterations
-    ok, its, why = s2.solve_increment(t)
-    if not ok:          # as the load stepping does: the same solve once more with the other line search
-        other = "bt" if s2.options["linesearch"] == "basic" else "basic"
-        s2.log(f"  remesh {rec.number}: retry the equilibrium with line search {other} ({why})")
-        s2.set_linesearch(other)
-        try:
-            ok, its, why = s2.solve_increment(t)
-        finally:
-            s2.set_linesearch(s2.options["linesearch"])
-    if not ok:
-        raise RunError(f"no equilibrium on the new mesh of remesh {rec.number} at t = {t:.6g} ({reason}): {why}, "
-                       f"|R| = {', '.join(f'{n:.3e}' for n in s2.norms[:4] + s2.norms[-3:])}")
-    s2.commit()
-    if nb.contact is not None:
-        nb.contact.commit()
+    _equilibrate(s2, nb.contact, t, f"remesh {rec.number} at t = {t:.6g} ({reason})")
     rec.equilibrium_s = clock.lap()
     rec.equilibrium_iterations = s2.total_iterations - its_before
     rec.new_cells = nb.mesh.topology.index_map(nb.mesh.topology.dim).size_global
@@ -87,6 +73,69 @@ def remeshed(problem, comm, b, remesher, reason, quantities, build, log=None, pr
     rec.new_quality = remesher.fresh = (q.min_scaled_jacobian, q.max_angle_deg)
     s.close()
     return nb, rec, before
+
+
+#: the share of a new mesh's out-of-balance force applied at each stage of a re-equilibration that did
+#: not converge at once (the transferred stress near a tool edge can be far from equilibrium)
+EQUILIBRIUM_STAGES = (0.25, 0.5, 0.75, 1.0)
+
+
+class _Imbalance:
+    """A residual term of the static solver (``solver.terms``) that takes back ``scale`` times the force
+    ``r0`` (owned entries of the residual at the new mesh's start): with it the solver finds the
+    equilibrium of part of the out-of-balance force, without it the whole."""
+
+    def __init__(self, r0):
+        self.r0, self.scale = r0, 0.0
+
+    def residual(self, b):
+        with b.localForm() as bl:
+            bl.array[: len(self.r0)] -= self.scale * self.r0
+
+    def jacobian(self, A):
+        pass
+
+
+def _solve(s, t):
+    """One equilibrium solve at load t, again with the other line search if the first fails (as the load
+    stepping does): (ok, why)."""
+    ok, its, why = s.solve_increment(t)
+    if not ok:
+        other = "bt" if s.options["linesearch"] == "basic" else "basic"
+        s.set_linesearch(other)
+        try:
+            ok, its, why = s.solve_increment(t)
+        finally:
+            s.set_linesearch(s.options["linesearch"])
+    return ok, why
+
+
+def _equilibrate(s, contact, t, where):
+    """Equilibrium of the new mesh's solver ``s`` at the load t it stands at, committed (``contact``: its
+    contact set, committed too): one Newton solve; if it fails, the out-of-balance force in
+    :data:`EQUILIBRIUM_STAGES` (each stage committed). RunError naming ``where`` if a stage fails."""
+    ok, why = _solve(s, t)
+    if not ok:
+        s.log(f"  {where}: equilibrium in stages ({why})")
+        term = _Imbalance(s.out_of_balance(t))
+        s.terms.append(term)
+        try:
+            for share in EQUILIBRIUM_STAGES:
+                term.scale = 1.0 - share
+                ok, why = _solve(s, t)
+                if not ok:
+                    break
+                s.commit()
+                if contact is not None:
+                    contact.commit()
+        finally:
+            s.terms.remove(term)
+    if not ok:
+        raise RunError(f"no equilibrium on the new mesh of {where}: {why}, "
+                       f"|R| = {', '.join(f'{n:.3e}' for n in s.norms[:4] + s.norms[-3:])}")
+    s.commit()
+    if contact is not None:
+        contact.commit()
 
 
 def resumed_build(problem, comm, b, saved, remesher, build, log, progress) -> SimpleNamespace:

@@ -650,6 +650,14 @@ class StaticSolver:
 
     lam_converged = 0.0
 
+    def out_of_balance(self, lam):
+        """The residual [N] (owned entries of w's equations, Dirichlet rows zero) at the converged state
+        with the load at ``lam``: the force a Newton solve there has to remove (collective)."""
+        self.restore()
+        self._predict(lam, None, False)
+        self._residual(self.snes, self.x, self.b)
+        return np.array(self.b.array_r)
+
     # -- checkpoints (fenics_plast.checkpoint) ---------------------------------------------------
     def state_dict(self):
         """The state a resumed run needs, at a converged increment (collective; see
