@@ -31,6 +31,11 @@ __all__ = ["Remesher", "RemeshRecord", "outline_corners", "MIN_EDGE"]
 #: keeping them all would force ever smaller cells (measured on demos/backward_extrusion.toml: 800 ->
 #: 18448 cells in 7 remeshes, the new meshes' worst scaled Jacobian 0.003)
 MIN_EDGE = 0.5
+#: the deformed outline's coordinates are rounded to this many decimals [mm] (1 nm) before Gmsh meshes it:
+#: serial and parallel runs reach the same deformed shape to round-off only (1e-13 mm), and Gmsh's
+#: Frontal-Delaunay and Blossom turn such a difference into another mesh (measured on the backward
+#: extrusion: 2313 cells serially, 2315 on 2 ranks at the third remesh, forces 1e-5 apart after it)
+OUTLINE_DECIMALS = 6
 #: a new mesh whose worst cell is already beyond a threshold is remeshed only once that cell has got worse
 #: by this much (its scaled Jacobian) or these degrees (its largest corner angle)
 FRESH_MARGIN_SJ = 0.1
@@ -190,6 +195,7 @@ class Remesher:
         if why is not None:
             raise RemeshError(f"the deformed outline could not be traced (a folded cell on the boundary?): {why}; "
                               f"remesh earlier (a larger remeshing.min_scaled_jacobian)")
+        out.points = np.round(out.points, OUTLINE_DECIMALS)
         spec = self.spec
         corners = outline_corners(out, spec.corner_angle) if spec.refine_size is not None else ()
         return mesh_outline(mesh.comm, out, spec.size, h_min=spec.refine_size, refine_points=corners,
