@@ -2,7 +2,7 @@
 sizes, h and h/2.
 
     python benchmarks/bench_remesh_static.py [--out results/bench_remesh_static] [--reuse]
-        [--sizes 0.5:0.2 0.25:0.1] [--figure docs/figures/backward_extrusion_force.png]
+        [--sizes 0.5:0.2 0.25:0.1] [--figure docs/figures/backward_extrusion_force.png] [--set KEY=VALUE]
 
 Each size ``size:refine_size`` [mm] is one run of the demo through the CLI (``--set remeshing.size=..
 --set remeshing.refine_size=..``) into ``<out>/h<size>``; ``--reuse`` reads a run already there. Printed
@@ -30,11 +30,13 @@ ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "demos" / "backward_extrusion.toml"
 
 
-def run(out: Path, size: float, refine: float, reuse: bool) -> tuple[dict, dict]:
-    """(summary.json, history columns) of the demo at ``size`` / ``refine`` [mm] in ``out``."""
+def run(out: Path, size: float, refine: float, reuse: bool, sets=()) -> tuple[dict, dict]:
+    """(summary.json, history columns) of the demo at ``size`` / ``refine`` [mm] in ``out`` (``sets``:
+    further KEY=VALUE settings)."""
     if not (reuse and (out / "summary.json").is_file()):
         cmd = [str(ROOT / ".venv" / "bin" / "fenics-plast"), "run", str(SCENE), "--out", str(out),
                "--set", f"remeshing.size={size}", "--set", f"remeshing.refine_size={refine}"]
+        cmd += [a for kv in sets for a in ("--set", kv)]
         print(" ".join(cmd), flush=True)
         subprocess.run(cmd, check=False, stdout=subprocess.DEVNULL)
     summary = json.loads((out / "summary.json").read_text())
@@ -48,7 +50,7 @@ def report(name: str, s: dict, h: dict) -> None:
     recs = s.get("remesh_records", [])
     parts = {k: sum(r[k] for r in recs) for k in ("mesh_s", "transfer_s", "rebuild_s", "equilibrium_s")}
     total = s.get("solve_time_s", float("nan"))
-    its = [r["equilibrium_iterations"] for r in recs] or [0]
+    its = [r["equilibrium_iterations"] for r in recs if "equilibrium_iterations" in r] or [0]
     jumps = [abs(b - a) / abs(a) for r in recs for k, (a, b) in r["jump"].items() if k == "punch_force" and a]
     print(f"{name}: travel {h['punch_travel_mm'][-1]:.2f} mm, converged {s.get('converged')}, "
           f"{s.get('increments')} increments, {s.get('remeshes')} remeshes, {s.get('cells')} cells at the end")
@@ -68,11 +70,13 @@ def main(argv=None) -> int:
     ap.add_argument("--sizes", nargs="+", default=["0.5:0.2", "0.25:0.1"])
     ap.add_argument("--reuse", action="store_true")
     ap.add_argument("--figure", default=None)
+    ap.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
+                    help="a setting for every run (e.g. analysis.max_increment=0.005)")
     args = ap.parse_args(argv)
     runs = []
     for spec in args.sizes:
         size, refine = (float(v) for v in spec.split(":"))
-        s, h = run(Path(args.out) / f"h{size:g}", size, refine, args.reuse)
+        s, h = run(Path(args.out) / f"h{size:g}", size, refine, args.reuse, args.sets)
         report(f"size {size:g} mm (refine {refine:g} mm)", s, h)
         runs.append((f"h = {size:g} mm, {refine:g} mm at corners", h))
     fine = runs[-1][1]

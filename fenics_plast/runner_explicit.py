@@ -285,6 +285,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
 
     def on_check(s):
         from fenics_plast.remeshing.quality import deformed_nodes
+        s.u.x.scatter_forward()         # (the ghost nodes' displacements, which the cells' shapes need)
         run.remesh_reason = remesher.due(run.b.mesh, deformed_nodes(s.u))
         return bool(run.remesh_reason)
 

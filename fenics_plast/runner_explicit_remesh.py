@@ -26,6 +26,8 @@ def remeshed_explicit(problem, comm, b, remesher, reason, quantities, build) -> 
     from fenics_plast.remeshing.remesher import timed
     s = b.solver
     t = s.t
+    for f in (s.u, s.v):            # the step updates the owned entries: the ghosts' values from their owners
+        f.x.scatter_forward()
     x = deformed_nodes(s.u)
     rec = remesher.start(t / US, reason, s.cells_global, remesher.quality(b.mesh, x))
     before = quantities.one_column_values(t / US)
