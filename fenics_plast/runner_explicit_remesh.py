@@ -23,7 +23,7 @@ def remeshed_explicit(problem, comm, b, remesher, reason, quantities, build) -> 
     outputs before). Collective."""
     from dolfinx import fem
     from fenics_plast.remeshing.quality import deformed_nodes
-    from fenics_plast.remeshing.remesher import timed
+    from fenics_plast.remeshing.remesher import carry_displacement, timed
     s = b.solver
     t = s.t
     for f in (s.u, s.v):            # the step updates the owned entries: the ghosts' values from their owners
@@ -44,8 +44,7 @@ def remeshed_explicit(problem, comm, b, remesher, reason, quantities, build) -> 
     s2.log = s.log
     new_total = fem.Function(s2.V)
     transfer.nodal_function(total, new_total)
-    nb.u_before = new_total.x.array.copy()
-    nb.body.X = nb.body.X - nb.u_before.reshape(nb.body.X.shape)
+    carry_displacement(nb, new_total.x.array)
     nb.group_facets, nb.remesh_record = new.group_facets, new.record
     v = fem.Function(s2.V)
     transfer.nodal_function(s.v, v)

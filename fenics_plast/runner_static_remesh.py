@@ -28,7 +28,7 @@ def remeshed(problem, comm, b, remesher, reason, quantities, build, log=None, pr
     when equilibrium is not found."""
     from dolfinx import fem
     from fenics_plast.remeshing.quality import deformed_nodes
-    from fenics_plast.remeshing.remesher import timed
+    from fenics_plast.remeshing.remesher import carry_displacement, timed
     s = b.solver
     t = s.lam_converged
     u = s.displacement_function()
@@ -49,8 +49,7 @@ def remeshed(problem, comm, b, remesher, reason, quantities, build, log=None, pr
                       penalties={n: p.penalty for n, p in b.pairs.items()})
     new_total = fem.Function(nb.Vc)
     transfer.nodal_function(total, new_total)
-    nb.u_before = new_total.x.array.copy()
-    nb.body.X = nb.body.X - nb.u_before.reshape(nb.body.X.shape)
+    carry_displacement(nb, new_total.x.array)
     nb.group_facets, nb.remesh_record, nb.since = new.group_facets, new.record, t
     s2 = nb.solver
     s2.qmap.set_state(state)

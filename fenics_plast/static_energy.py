@@ -45,9 +45,9 @@ class StaticEnergy:
         self.b = b
         s = b.solver
         self.n_owned = s.W.dofmap.index_map.size_local * s.W.dofmap.index_map_bs
+        from fenics_plast import dolfinx_compat as dc
         constrained = np.zeros(len(s.w.x.array), dtype=bool)
         for bc in s.bcs:
-            from fenics_plast import dolfinx_compat as dc
             constrained[dc.bc_dofs(bc)] = True
         self.constrained = constrained[: self.n_owned]
         self._snapshot()
@@ -98,19 +98,19 @@ class StaticEnergy:
         self.W_int += self.elastic() - elastic_old
 
     # -- reports ---------------------------------------------------------------------------------
-    def elastic(self) -> float:
-        """Stored elastic energy [N mm] of the body now (collective)."""
+    def _point_volumes(self):
+        """(b_e^-1 (points, 3, 3), stress-free volumes dV0 (points,) [mm^3]) of the owned points now."""
         from fenics_plast.remeshing.quality import deformed_nodes
-        from fenics_plast.remeshing.transfer import quadrature_volumes
+        from fenics_plast.remeshing.transfer import point_volumes
         s = self.b.solver
         binv = s.qmap.state()["binv"].reshape(-1, 3, 3)
-        dv = quadrature_volumes(s.mesh, s.qmap.degree, self.axisymmetric,
-                                deformed_nodes(s.displacement_function())).reshape(-1)
-        if self.axisymmetric:
-            dv = 2.0 * np.pi * dv
-        je = np.sqrt(1.0 / np.linalg.det(binv))
-        psi = self.b.material.energy(binv)
-        return s.comm.allreduce(float(np.sum(psi * dv / je)), op=MPI.SUM)
+        return binv, point_volumes(s.mesh, s.qmap.degree, self.axisymmetric, binv,
+                                   deformed_nodes(s.displacement_function()))[1]
+
+    def elastic(self) -> float:
+        """Stored elastic energy [N mm] of the body now (collective)."""
+        binv, dV0 = self._point_volumes()
+        return self.b.solver.comm.allreduce(float(np.sum(self.b.material.energy(binv) * dV0)), op=MPI.SUM)
 
     def plastic_from_state(self) -> float | None:
         """The plastic dissipation [N mm] the state's eqps implies: sum over the points of dV0 times the
@@ -119,19 +119,12 @@ class StaticEnergy:
         collective). Independent of :meth:`energies`' plastic term (internal work minus elastic energy):
         the two agree where the flow stress is the Kirchhoff one of the isochoric model and remeshing
         keeps eqps (each transfer smooths eqps, which shows as a difference)."""
-        from fenics_plast.remeshing.quality import deformed_nodes
-        from fenics_plast.remeshing.transfer import quadrature_volumes
         s = self.b.solver
         h = getattr(self.b.material, "hardening", None)
         if h is None or h.thermal or h.law == "johnson_cook":
             return None
         eqps = np.asarray(s.qmap.state()["eqps"]).reshape(-1)
-        binv = s.qmap.state()["binv"].reshape(-1, 3, 3)
-        dv = quadrature_volumes(s.mesh, s.qmap.degree, self.axisymmetric,
-                                deformed_nodes(s.displacement_function())).reshape(-1)
-        if self.axisymmetric:
-            dv = 2.0 * np.pi * dv
-        dV0 = dv * np.sqrt(np.linalg.det(binv))
+        _, dV0 = self._point_volumes()
         xg, wg = np.polynomial.legendre.leggauss(4)
         integral = np.zeros_like(eqps)
         for x, w in zip(xg, wg):

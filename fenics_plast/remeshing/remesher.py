@@ -24,7 +24,7 @@ from .outline import outline
 from .quality import Thresholds, mesh_quality, reference_orientation
 from .transfer import StateTransfer
 
-__all__ = ["Remesher", "RemeshRecord", "outline_corners", "MIN_EDGE"]
+__all__ = ["Remesher", "RemeshRecord", "outline_corners", "carry_displacement", "MIN_EDGE"]
 
 #: old boundary vertices nearer than this times the smallest cell size to their kept neighbour are
 #: dropped from a new outline: material flowing round a tool edge crowds the old boundary facets, and
@@ -80,6 +80,15 @@ class RemeshRecord:
         return (f"remesh {self.number} at {self.at:.6g} ({self.reason}): {self.old_cells} -> {self.new_cells} cells, "
                 f"worst scaled Jacobian {self.old_quality[0]:.3g} -> {self.new_quality[0]:.3g}{equilibrium}, "
                 f"{self.seconds:.2f} s" + (f"; {jumps}" if jumps else ""))
+
+
+def carry_displacement(b, u_before) -> None:
+    """Give the build ``b`` of a new mesh the displacement ``u_before`` (its CG1 space's local entries,
+    owned and ghost, [mm]) from the first mesh's reference to its own nodes: ``b.u_before``, and
+    ``b.body.X`` = its nodes minus that, the reference the outputs measure from (nearest nodes,
+    displacements, thicknesses)."""
+    b.u_before = np.asarray(u_before, dtype=float).copy()
+    b.body.X = b.body.X - b.u_before.reshape(b.body.X.shape)
 
 
 def outline_corners(out, corner_deg: float) -> np.ndarray:
@@ -166,12 +175,9 @@ class Remesher:
         plastic flow that keeps volume (the isochoric model); its change measures what remeshing lost or
         added. Collective."""
         from mpi4py import MPI
-        from .transfer import quadrature_volumes
-        dv = quadrature_volumes(mesh, degree, self.axisymmetric, x).reshape(-1)
-        if self.axisymmetric:
-            dv = 2.0 * np.pi * dv
-        je = np.sqrt(1.0 / np.linalg.det(np.asarray(binv).reshape(-1, 3, 3)))
-        local = np.array([dv.sum(), (dv / je).sum()])
+        from .transfer import point_volumes
+        dv, dV0 = point_volumes(mesh, degree, self.axisymmetric, binv, x)
+        local = np.array([dv.sum(), dV0.sum()])
         return tuple(float(v) for v in mesh.comm.allreduce(local, op=MPI.SUM))
 
     def check_budget(self) -> str | None:

@@ -35,10 +35,10 @@ def restore_u_before(nb, space, saved, new) -> None:
     ``space``) from the checkpoint, the outputs' reference (``nb.body.X``), its groups' facets and record."""
     from dolfinx import fem
     from fenics_plast.checkpoint import dof_keys
+    from .remesher import carry_displacement
     n = space.dofmap.index_map.size_local * space.dofmap.index_map_bs
     u = fem.Function(space)
     u.x.array[:n] = saved["remesh_state"]["u_before"].take(dof_keys(space)[:n])
     u.x.scatter_forward()
-    nb.u_before = u.x.array.copy()
-    nb.body.X = nb.body.X - nb.u_before.reshape(nb.body.X.shape)
+    carry_displacement(nb, u.x.array)
     nb.group_facets, nb.remesh_record = new.group_facets, new.record

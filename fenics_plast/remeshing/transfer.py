@@ -95,7 +95,7 @@ from fenics_plast import dolfinx_compat as dc
 from fenics_plast.state_variables import STATE
 
 __all__ = ["StateTransfer", "OldBody", "RULES", "TransferReport", "Located", "gauss_to_corners", "nodal_average",
-           "locate", "bilinear", "shape_functions", "cell_corners", "quadrature_points", "quadrature_volumes",
+           "locate", "bilinear", "shape_functions", "cell_corners", "quadrature_points", "quadrature_volumes", "point_volumes",
            "spd_log", "spd_exp", "scattered_values"]
 
 #: transfer rule of a state variable, by its shape per point
@@ -356,6 +356,17 @@ def quadrature_volumes(mesh, degree: int, axisymmetric: bool = False, x=None) ->
     if axisymmetric:
         vol = vol * quadrature_points(mesh, degree, x)[:, 0].reshape(n, nq)
     return vol
+
+
+def point_volumes(mesh, degree: int, axisymmetric: bool, binv, x=None) -> tuple[np.ndarray, np.ndarray]:
+    """(dv, dV0) (owned points,) [mm^3; plane strain mm^2, per mm]: each owned quadrature point's volume
+    of ``mesh`` deformed to ``x`` (axisymmetric: revolved, 2 pi r dA; :func:`quadrature_volumes`) and the
+    same with its elastic dilatation taken out, dv / J_e with J_e = det(b_e^-1)^(-1/2) (``binv``: the points'
+    b_e^-1, (points, 3, 3)): the stress-free volume the energies and the remeshing's volume check count in."""
+    dv = quadrature_volumes(mesh, degree, axisymmetric, x).reshape(-1)
+    if axisymmetric:
+        dv = 2.0 * np.pi * dv
+    return dv, dv * np.sqrt(np.linalg.det(np.asarray(binv).reshape(-1, 3, 3)))
 
 
 class OldBody:
