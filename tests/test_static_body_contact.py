@@ -113,7 +113,7 @@ def test_node_to_segment_tangent_is_the_force_derivative(case, friction):
         def residual(xs, verts, dxs, dverts):
             r, K, g, N = np.zeros((1, 6)), np.zeros((1, 6, 6)), np.zeros(1), np.zeros((1, 2))
             t, p, slip, pressed = np.zeros((1, 2)), np.zeros(1), np.zeros(1), np.zeros(1, dtype=bool)
-            _node_terms(xs, dxs, np.array([0.7]), np.array([0]), verts, dverts, F, law, t_n, N_n, p_n, r, K, g, N,
+            _node_terms(xs, dxs, np.array([0.7]), np.array([0]), verts, dverts, F, verts, law, t_n, N_n, p_n, r, K, g, N,
                         t, p, slip, pressed)
             return r[0], K[0], g[0], slip[0], pressed[0]
 
@@ -147,7 +147,7 @@ def test_a_touching_node_has_the_pressed_sides_tangent_on_either_side_of_zero(fr
         r, K, g, N = np.zeros((1, 6)), np.zeros((1, 6, 6)), np.zeros(1), np.zeros((1, 2))
         t, p, slip, pressed = np.zeros((1, 2)), np.zeros(1), np.zeros(1), np.zeros(1, dtype=bool)
         _node_terms(np.array([[0.4, gap]]), np.zeros((1, 2)), np.array([0.7]), np.array([0]), V, np.zeros((2, 2)),
-                    F, law, np.zeros((1, 2)), np.array([[0.0, 1.0]]), np.zeros(1), r, K, g, N, t, p, slip, pressed)
+                    F, V, law, np.zeros((1, 2)), np.array([[0.0, 1.0]]), np.zeros(1), r, K, g, N, t, p, slip, pressed)
         return K[0], pressed[0], g[0]
 
     K_minus, pressed_minus, g_minus = terms(-1e-16)
@@ -268,8 +268,9 @@ def test_friction_between_bodies_equals_friction_on_a_rigid_tool(dim, sets):
     """A block pressed onto a base 1000 times stiffer and slid along it (tests/scenes/sliding_blocks.toml, the
     onset of sliding: with coulomb the edges slip, the middle sticks) carries the same normal and tangential force
     as on a rigid plane with the same friction (sliding_block_on_tool.toml), within the base's compliance
-    (measured: coulomb -0.04 % normal, -0.02 % tangential; quasi-coulomb -0.03 %, -0.07 %). (The 3-D case,
-    sliding_blocks_3d.toml, is not a test: README, Known limitations.)"""
+    (measured: coulomb -0.04 % normal, -0.02 % tangential; quasi-coulomb -0.03 %, -0.07 %). (The 3-D case with
+    friction, sliding_blocks_3d.toml, does not converge at the onset of sliding yet: README, Known limitations;
+    frictionless it does, test_3d_frictionless_between_bodies_equals_a_rigid_plane.)"""
     scenes = REPO / "tests" / "scenes"
     suffix = "_3d" if dim == 3 else ""
     body = run_scene_in_process(scenes / f"sliding_blocks{suffix}.toml", *sets)
@@ -283,6 +284,29 @@ def test_friction_between_bodies_equals_friction_on_a_rigid_tool(dim, sets):
     assert abs(ft[0]) > 0.02 * ft[n] and abs(fb[0] / ft[0] - 1) < 3e-3, (fb, ft)     # a real shear, the same
     contact, slipping = body.pairs["interface"].status()
     assert slipping < contact and (slipping > 0 or "quasi" in sets[0]), (contact, slipping)
+
+
+@pytest.mark.parametrize("two_pass", [False, True], ids=["one-pass", "two-pass"])
+def test_3d_frictionless_between_bodies_equals_a_rigid_plane(two_pass):
+    """A 3-D block (6 x 6 x 3 hexahedra) pressed 1 um onto a base 1000 times stiffer (10 x 10 x 3, non-matching,
+    block nodes over the base's facet edges) and slid 0.2 um, frictionless (tests/scenes/sliding_blocks_3d.toml):
+    the normal force within 0.2 % of the same block on a rigid plane (sliding_block_on_tool_3d.toml; penalty
+    1e7 N/mm^3: 0.1 % compliance), every increment converged without a cut-back in at most 4 Newton
+    iterations (measured: -0.069 % one pass, -0.015 % two passes; 23 and 24 iterations in 10 increments).
+    Before the master surface's normal was made continuous (static_surface_contact) Newton stalled at
+    |R| ~ 3e-7 N and the run stopped at t = 0.002."""
+    scenes = REPO / "tests" / "scenes"
+    sets = ("contact.interface.friction=0", f"contact.interface.two_pass={str(two_pass).lower()}")
+    body = run_scene_in_process(scenes / "sliding_blocks_3d.toml", *sets)
+    tool = run_scene_in_process(scenes / "sliding_block_on_tool_3d.toml", sets[0])
+    fb, ft = body.pairs["interface"].force(), tool.pairs["interface"].force()
+    print(f"\n3-D frictionless, two_pass {two_pass}: normal force {fb[2]:.6g} N against {ft[2]:.6g} N on the plane "
+          f"({fb[2] / ft[2] - 1:+.2e}), {body.solver.total_iterations} Newton iterations")
+    assert ft[2] > 40.0 and abs(fb[2] / ft[2] - 1) < 2e-3, (fb, ft)
+    assert abs(fb[0]) < 1e-6 * fb[2] and abs(fb[1]) < 1e-6 * fb[2], fb
+    s = body.solver
+    assert not s.cutbacks and len(s.increments) == 10, s.cutbacks
+    assert max(inc["iterations"] for inc in s.increments) <= 4, [inc["iterations"] for inc in s.increments]
 
 
 def test_friction_between_bodies_slips_at_mu_times_the_normal_force():

@@ -10,6 +10,15 @@ forces
     p = eps <-g>,   g = (x_s - q) . n_f inside the facet (n_f its unit normal, out of the master body),
                     g = sign |x_s - q|, N = (x_s - q) / g at its edges and corners,
 
+N = n_f inside a segment (2-D); on triangles (3-D) N is the surface's vertex normals (angle-weighted
+pseudo-normals) interpolated at q with the weights w_a and normalised, continuous across facet edges: with
+each facet's own normal a node pressed near the diagonal of a slightly warped quadrilateral (two triangles)
+or an edge between two nearly coplanar facets saw the normal jump by the warp as it crossed, and Newton
+stalled at that jump's force (about 1e-7 N; the frictionless 3-D block on a block stopped at 0.2 % of its
+travel, tests/scenes/sliding_blocks_3d.toml). A node whose projection lies outside its facet by less than
+:data:`ON_EDGE` of the facet's size counts as inside in 3-D (round-off on a shared edge otherwise tilts N by
+the lateral offset over the gap). 2-D is as it was (segments' own normals, no tolerance).
+
 t the tangential traction of the law both solvers share (:func:`~fenics_plast.solvers.contact_law.node_law`:
 coulomb or quasi-coulomb, slip as a vector of the tangent plane) with the slip s = d_s - sum_a w_a d_a, the
 displacement of the slave since the last commit relative to the master point's (d the nodes' displacements
@@ -54,6 +63,9 @@ FD_STEP = 1e-7
 #: tangent (round-off puts a node that touches on either side of g = 0: 2.2e-16 mm on one machine, 0 on
 #: another, and a touching node without the pressed side's stiffness stalled Newton on the sliding blocks)
 TOUCHING = 1e-12
+#: a node whose projection onto its facet's plane lies outside the facet by less than this times the facet's
+#: longest edge is taken as inside it (the facet's normal, not the direction from the nearest edge point)
+ON_EDGE = 1e-6
 
 
 class SurfaceContactTerm:
@@ -128,7 +140,7 @@ class SurfaceContactTerm:
         nearest_points(surf, x, self.skip, self.g, self.N, self.facet, self.weights, facing=facing)
         h = self.hist
         _node_terms(x, du[self.dofs], self.area, self.facet, surf.vertices, self.surface.increment, surf.facets,
-                    self._law, h.t_n, h.N_n, h.p_n, self.r, self.K, self.g, self.N, self.t, self.p, self.slip,
+                    surf.vertex_normals, self._law, h.t_n, h.N_n, h.p_n, self.r, self.K, self.g, self.N, self.t, self.p, self.slip,
                     self.pressed)
 
     def residual(self, b):
@@ -240,7 +252,7 @@ def surface_terms(contact, facet_tags, tag, master_tag, *, penalty, friction, la
 
 
 @_njit
-def _element_force(P, D, nfv, area, n_f, law, t_n, N_n, p_n, f, t):
+def _element_force(P, D, nfv, area, n_f, NV, size, law, t_n, N_n, p_n, f, t):
     """f (1 + nfv, dim) = the forces [N] on the slave (row 0, position P[0]) and on the facet's vertices
     (P[1:]) of the element of slave area ``area`` [mm^2] and facet normal n_f (its own, from the vertices'
     order; only its side is used at edges and corners), by :func:`~fenics_plast.solvers.contact_law.node_law`
@@ -262,10 +274,17 @@ def _element_force(P, D, nfv, area, n_f, law, t_n, N_n, p_n, f, t):
     along = r0 * n_f[0] + r1 * n_f[1] + (r2 * n_f[2] if dim == 3 else 0.0)
     dist = math.sqrt(d2)
     N = np.empty(dim)
-    if feature == 0 or dist <= 1e-14:
+    if feature == 0 or dist <= 1e-14 or (dim == 3 and d2 - along * along <= (ON_EDGE * size) ** 2):
         g = along
         for j in range(dim):
             N[j] = n_f[j]
+        if NV.shape[0] == nfv:          # 3-D: the vertex normals interpolated, continuous across facets
+            size_n = 0.0
+            for j in range(dim):
+                N[j] = w[0] * NV[0, j] + w[1] * NV[1, j] + w[2] * NV[2, j]
+                size_n += N[j] * N[j]
+            for j in range(dim):
+                N[j] /= math.sqrt(size_n)
     else:
         sign = 1.0 if along >= 0.0 else -1.0
         g = sign * dist
@@ -341,7 +360,7 @@ def _segment_tangent(P, xi, g, k, K):
 
 
 @_njit
-def _node_terms(x, dx, area, facet, V, DV, F, law, t_n, N_n, p_n, r, K, g, N, t, p, slip, pressed):
+def _node_terms(x, dx, area, facet, V, DV, F, VN, law, t_n, N_n, p_n, r, K, g, N, t, p, slip, pressed):
     """Per slave node i (positions x (n, dim) [mm], displacements since the last commit dx (n, dim) [mm]) with a
     facet (facet[i] >= 0) of the surface V (nv, dim) [mm] (its vertices' displacements since the commit DV
     (nv, dim)), F (nf, nfv): r[i] = -f (the residual's entries: the slave's dim components, then each facet
@@ -360,6 +379,8 @@ def _node_terms(x, dx, area, facet, V, DV, F, law, t_n, N_n, p_n, r, K, g, N, t,
     fm = np.empty((1 + nfv, dim))
     tw = np.empty(dim)
     frictionless = law[2] <= 0.0
+    smooth = dim == 3
+    NVf = np.zeros((nfv if smooth else 0, dim))
     for i in range(n):
         r[i, :] = 0.0
         K[i, :, :] = 0.0
@@ -379,12 +400,14 @@ def _node_terms(x, dx, area, facet, V, DV, F, law, t_n, N_n, p_n, r, K, g, N, t,
             for j in range(dim):
                 P[1 + a, j] = V[F[fc, a], j]
                 D[1 + a, j] = DV[F[fc, a], j]
+                if smooth:
+                    NVf[a, j] = VN[F[fc, a], j]
             for b in range(a):
                 e = 0.0
                 for j in range(dim):
                     e += (V[F[fc, a], j] - V[F[fc, b], j]) ** 2
                 size = max(size, math.sqrt(e))
-        gi, Ni, p[i], slip[i] = _element_force(P, D, nfv, area[i], _facet_normal(P), law, t_n[i], N_n[i], p_n[i],
+        gi, Ni, p[i], slip[i] = _element_force(P, D, nfv, area[i], _facet_normal(P), NVf, size, law, t_n[i], N_n[i], p_n[i],
                                                f, t[i])
         g[i] = gi
         for j in range(dim):
@@ -415,9 +438,9 @@ def _node_terms(x, dx, area, facet, V, DV, F, law, t_n, N_n, p_n, r, K, g, N, t,
             a, j = c // dim, c % dim
             keep, keep_d = P[a, j], D[a, j]
             P[a, j], D[a, j] = keep + h, keep_d + h
-            _element_force(P, D, nfv, area[i], _facet_normal(P), law, t_n[i], N_n[i], p_n[i], fp, tw)
+            _element_force(P, D, nfv, area[i], _facet_normal(P), NVf, size, law, t_n[i], N_n[i], p_n[i], fp, tw)
             P[a, j], D[a, j] = keep - h, keep_d - h
-            _element_force(P, D, nfv, area[i], _facet_normal(P), law, t_n[i], N_n[i], p_n[i], fm, tw)
+            _element_force(P, D, nfv, area[i], _facet_normal(P), NVf, size, law, t_n[i], N_n[i], p_n[i], fm, tw)
             P[a, j], D[a, j] = keep, keep_d
             for b in range(1 + nfv):
                 for k in range(dim):
