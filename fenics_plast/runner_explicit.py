@@ -188,7 +188,8 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
                 energies=solver.energies, tool_translation=lambda tool, t: tools[tool].translation(t, use_ufl=False),
                 geometry=problem.mesh.geometry, mass_scaling=scaling, erosion=erosion,
                 wall_energy=solver.walls.energy if solver.walls.active else None,
-                contact_force=lambda name: np.asarray(pairs[name].force()))
+                contact_force=lambda name: np.asarray(pairs[name].force()),
+                contact_nodes=lambda name: pairs[name].contact_nodes())
     return SimpleNamespace(solver=solver, material=material, tools=tools, pairs=pairs, contact_pairs=specs,
                            body=body, mesh=mesh, cell_tags=ct, facet_tags=ft, groups=groups)
 

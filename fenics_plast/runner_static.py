@@ -198,7 +198,8 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None, since=0
     body = Body(comm, Vc, X, positions, s.qmap, cell_regions(ct, groups, s.qmap.n_owned),
                 reaction=s.reaction, tool_force=tool_force, tool_translation=tool_translation,
                 geometry=problem.mesh.geometry,
-                contact_force=lambda name: np.asarray(pairs[name].force()))
+                contact_force=lambda name: np.asarray(pairs[name].force()),
+                contact_nodes=lambda name: pairs[name].contact_nodes())
     return SimpleNamespace(solver=s, material=material, tools=tools, contact=contact, pairs=pairs,
                            contact_pairs=specs,
                            reactions=reactions, body=body, positions=positions, Vc=Vc, mesh=mesh, cell_tags=ct,

@@ -393,6 +393,9 @@ SCHEMA: dict[str, Table] = {
             "group": Key("str", OPTIONAL, "Facet group (extent: absent = the whole body).",
                          when={"quantity": taking("group")}),
             "tool": Key("str", REQUIRED, "Tool name.", when={"quantity": taking("tool")}),
+            "contact": Key("str", REQUIRED, "Name of a [contact.<name>] pair: its master surface (a tool, or the "
+                           "body's master group) against the nodes of its group.",
+                           when={"quantity": taking("contact")}),
             "component": Key("str", REQUIRED, "x or y (r or z) in 2-D; x, y or z in 3-D; extent also takes "
                              "radial: the distance from the z axis, sqrt(x^2 + y^2) (3-D; r in axisymmetry).",
                              choices=("x", "y", "r", "z", "radial"),

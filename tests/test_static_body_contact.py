@@ -68,6 +68,37 @@ def test_hertz_sphere_coarse_within_4_percent_newton_quadratic():
     assert len(orders) >= 5 and np.median(orders) > 1.5, orders
 
 
+def hertz_outputs(b):
+    """The demo's contact outputs (contact_radius, peak_pressure, mean_pressure, contact_area) measured by the
+    package's own quantities on the run ``b``, and Hertz's a, p0 for the force transmitted."""
+    from fenics_plast.problem import load_problem
+    from fenics_plast.quantities import Quantities
+    outputs = load_problem(REPO / "demos" / "hertz_sphere.toml").outputs
+    q = Quantities(outputs, b.body, b.facet_tags, b.groups, b.reactions)
+    got = {n: q.value(n, outputs[n], 1.0, {})[0]
+           for n in ("contact_radius", "peak_pressure", "mean_pressure", "contact_area", "contact")}
+    force = abs(got.pop("contact")) * 1e3
+    e_star = E / (2 * (1 - NU ** 2))
+    a_h = (3 * force * R / (4 * e_star)) ** (1 / 3)
+    return got, a_h, 3 * force / (2 * math.pi * a_h ** 2), force
+
+
+@pytest.mark.parametrize("cells", [20, pytest.param(40, marks=pytest.mark.slow)])
+def test_hertz_contact_outputs(cells):
+    """The contact outputs read as a user reads them (contact_radius, contact_pressure max and mean,
+    contact_area of demos/hertz_sphere.toml) against Hertz for the force transmitted: radius and peak pressure
+    within 2 % (measured at 20 / 40 cells per mm: -1.05 / -0.61 % and -1.45 / -0.83 %); the mean pressure is
+    the normal force over the area (to round-off), the area within 4 % of pi a^2 (the nodal rule counts the
+    outermost pressed node's whole tributary ring: +3.1 / +2.1 %)."""
+    b = run_static("hertz_sphere.toml", f"mesh.parameters.cells_contact={cells}")
+    got, a_h, p0_h, force = hertz_outputs(b)
+    print(f"\nHertz at {cells} cells/mm: {got}; Hertz a {a_h:.5f} mm, p0 {p0_h:.2f} MPa")
+    assert abs(got["contact_radius"] / a_h - 1) < 0.02, (got, a_h)
+    assert abs(got["peak_pressure"] / p0_h - 1) < 0.02, (got, p0_h)
+    assert abs(got["mean_pressure"] * got["contact_area"] / b.pairs["hertz"].normal_force() - 1) < 1e-12, got
+    assert abs(got["contact_area"] / (math.pi * a_h ** 2) - 1) < 0.04, (got, a_h)
+
+
 @pytest.mark.slow
 def test_hertz_sphere_fine_within_1_percent():
     """40 cells per mm (0.025 mm at the contact): within 1 % (measured -0.17 % and -0.52 %)."""
@@ -175,7 +206,9 @@ def test_hertz_serial_equals_two_ranks(tmp_path):
         h = np.genfromtxt(tmp_path / name / "history.csv", delimiter=",", names=True)
         # the block's force on the ball through the contact balances the press's reaction
         np.testing.assert_allclose(h["contact_kN"], -h["force_kN"], rtol=1e-8, atol=1e-9)
-        forces.append(h["force_kN"])
+        forces.append(np.column_stack([h[c] for c in ("force_kN", "contact_radius_mm", "peak_pressure_MPa",
+                                                      "mean_pressure_MPa", "contact_area_mm2")]))
+    # the force and the contact outputs (radius, peak and mean pressure, area) alike
     np.testing.assert_allclose(forces[1], forces[0], rtol=1e-8, atol=1e-12)
 
 

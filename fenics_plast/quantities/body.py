@@ -20,6 +20,8 @@ class Body:
     * ``reaction(dofs)`` [N] for owned V-dof indices of one component (unrolled, V numbering);
     * ``tool_force(tool)`` -> (Fx, Fy[, Fz]) [N]; ``tool_translation(tool, t)`` -> (dx, dy[, dz]) [mm];
       ``contact_force(pair)`` -> (Fx, Fy[, Fz]) [N] of a contact pair's master surface on its group;
+      ``contact_nodes(pair)`` -> (x (n, dim) [mm], g (n,) [mm], p (n,) [MPa], A (n,) [mm^2]) of its owned group
+      nodes: current positions, gaps, pressures, tributary reference areas (the pairs' ``contact_nodes``);
       ``energies()`` -> dict [N mm] (explicit only);
     * what the automatic quantities read (:data:`fenics_plast.quantities.registry.AUTOMATIC`), each None
       when the run has none: ``mass_scaling`` (``stats()``: the solver's mass-scaling statistics,
@@ -29,12 +31,13 @@ class Body:
 
     def __init__(self, comm, V, X, positions, qmap, cell_regions, *, geometry, reaction=None, tool_force=None,
                  energies=None, tool_translation=None, mass_scaling=None, wall_energy=None, erosion=None,
-                 contact_force=None):
+                 contact_force=None, contact_nodes=None):
         self.comm, self.V, self.X, self.positions, self.qmap = comm, V, X, positions, qmap
         self.geometry = geometry
         self.cell_regions = cell_regions           # region name -> owned cell indices
         self.reaction, self.tool_force, self.energies = reaction, tool_force, energies
         self.tool_translation, self.contact_force = tool_translation, contact_force
+        self.contact_nodes = contact_nodes
         self.mass_scaling, self.wall_energy, self.erosion = mass_scaling, wall_energy, erosion
         self.n_owned_nodes = V.dofmap.index_map.size_local
 

@@ -166,7 +166,12 @@ class BodySurface:
         (n,), and only facets facing their vertex normals count."""
         facing = self.surface.vertex_normals[skip] if self_contact else None
         nearest_points(self.surface, x, skip, g, N, facet, weights, facing=facing)
-        dd = np.empty_like(weights)
+        return self.increment_at(facet, weights)
+
+    def increment_at(self, facet, weights):
+        """The surface's increment over the step (as :meth:`move` left it) at the points of the facets (n,)
+        with the weights (n, dim) of their vertices: (n, dim) [mm]."""
+        dd = np.empty((len(facet), self.dim))
         _at_points(self.surface.facets, facet, weights, self.increment, dd)
         return dd
 
@@ -210,6 +215,15 @@ class TwoPassPair:
 
     def max_penetration(self):
         return max(self.forward.max_penetration(), self.backward.max_penetration())
+
+    def contact_nodes(self):
+        """The group's nodes (the forward pass's :meth:`contact_nodes`), their pressures the interface's: each
+        pass carries a share of the force, so the forward pass's pressures are scaled by the total normal force
+        over the forward pass's (collective)."""
+        x, g, p, area = self.forward.contact_nodes()
+        forward = self.forward.normal_force()
+        total = forward + self.backward.normal_force()
+        return x, g, p * (total / forward if forward > 0.0 else 1.0), area
 
     def max_penetration_run(self):
         return max(self.forward.max_penetration_run(), self.backward.max_penetration_run())

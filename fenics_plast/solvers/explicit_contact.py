@@ -175,6 +175,18 @@ class ExplicitContactPair:
             return self._sum((c.area[self.sl, None] * c.t_hist[self.sl]).sum(axis=0))
         return self._sum(float(np.dot(c.area[self.sl], c.t_scal[self.sl])))
 
+    def contact_nodes(self):
+        """The pair's owned slave nodes now: current positions x (n, dim) [mm], gaps g (n,) [mm] (negative:
+        pressed in), pressures p (n,) [MPa] and tributary reference areas A (n,) [mm^2] (2 pi R included in
+        axisymmetry): what the contact outputs (contact_area, contact_radius, contact_pressure) read."""
+        c, s = self.set, self.set.solver
+        x = self.X + s.u.x.array[self.dofs]
+        if self.kind == ck.BODY or not self.compiled:
+            g = c.gN[self.sl, 0].copy()
+        else:
+            g = self.tool.gap_np(x, float(s.t))[0]
+        return x, g, c.p_hist[self.sl].copy(), c.area[self.sl]
+
     def max_penetration(self):
         """Largest penetration -g over the pair's nodes now [mm] (0 if none penetrates)."""
         p = self.set.p_hist[self.sl]

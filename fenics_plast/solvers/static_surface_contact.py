@@ -50,7 +50,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from fenics_plast.solvers.body_surface import BodySurface, TwoPassPair, _at_points, tributary_areas
+from fenics_plast.solvers.body_surface import BodySurface, TwoPassPair, tributary_areas
 from fenics_plast.solvers.contact_law import COULOMB, QUASI_COULOMB, NodeHistory, node_law
 from fenics_plast.solvers.surface_gaps import nearest_points, segment_nearest, triangle_nearest
 from fenics_plast.solvers.tool_gaps import FLAGS
@@ -182,8 +182,7 @@ class SurfaceContactTerm:
         self.surface.move(u, u - self.u_c)
         on = np.flatnonzero((self.hist.p_n > 0.0) & (facet >= 0))
         if len(on):
-            dd = np.empty((len(on), self.dim))
-            _at_points(self.surface.surface.facets, facet[on], weights[on], self.surface.increment, dd)
+            dd = self.surface.increment_at(facet[on], weights[on])
             self.solver.w.x.array[self.vmap[self.dofs[on]]] = self.u_c[self.dofs[on]] + dd
 
     # -- checkpoints ----------------------------------------------------------------------------
@@ -211,6 +210,13 @@ class SurfaceContactTerm:
         A.setValuesRCV(eq, eq, np.ascontiguousarray(self.K[on]), addv=PETSc.InsertMode.ADD)    # one block a node
 
     # -- reports (collective) --------------------------------------------------------------------
+    def contact_nodes(self):
+        """The pair's owned slave nodes now: current positions x (n, dim) [mm], gaps g (n,) [mm] (negative:
+        pressed in), pressures p (n,) [MPa] and tributary reference areas A (n,) [mm^2] (2 pi R included in
+        axisymmetry): what the contact outputs (contact_area, contact_radius, contact_pressure) read."""
+        self.evaluate()
+        return self.X + self.solver.w.x.array[self.vmap[self.dofs]], self.g.copy(), self.p.copy(), self.area
+
     def pressures(self):
         """(positions (n, dim) [mm], p (n,) [MPa]) of this rank's slave nodes at the last residual."""
         u = self.solver.w.x.array[self.vmap]

@@ -239,6 +239,13 @@ class ToolContactTerm:
         tot = self._sum(np.array([np.count_nonzero(self.g < 0.0), np.count_nonzero(self.slip)], dtype=np.int64))
         return int(tot[0]), int(tot[1])
 
+    def contact_nodes(self):
+        """The pair's owned slave nodes now: current positions x (n, dim) [mm], gaps g (n,) [mm] (negative:
+        pressed in), pressures p (n,) [MPa] and tributary reference areas A (n,) [mm^2] (2 pi R included in
+        axisymmetry): what the contact outputs (contact_area, contact_radius, contact_pressure) read."""
+        self.evaluate()
+        return self.X + self.solver.w.x.array[self.idx], self.g.copy(), self.p.copy(), self.area
+
     def nodal_gaps(self):
         """Gaps [mm] at the owned nodes of the pair's facets (current state), numpy (n,)."""
         self.evaluate()

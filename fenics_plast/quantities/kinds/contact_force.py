@@ -3,15 +3,9 @@ a rigid tool's on the body, or (``master``) the master group's body's on the gro
 the opposite force). Two passes: the group's own forces and the reactions of the other pass."""
 from __future__ import annotations
 
-from fenics_plast.scene_key import REQUIRED, Key
-
 NAME, ORDER = "contact_force", 21
 DOC = "contact_force: force of a contact pair's master surface on its group"
-TAKES = ("component", "unit", "scale")
-KEYS = {
-    "contact": Key("str", REQUIRED, "Name of a [contact.<name>] pair: the force its master surface (a tool, or "
-                   "the body's master group) exerts on the nodes of its group."),
-}
+TAKES = ("contact", "component", "unit", "scale")
 
 
 def columns(name, o):
@@ -19,6 +13,7 @@ def columns(name, o):
 
 
 def check(d, o, ctx, fail):
+    """The pair must exist (shared by every contact_* kind)."""
     if o.contact not in ctx["contacts"]:
         fail(f"{d}.contact = {o.contact!r} is not a contact pair: pairs are {', '.join(ctx['contacts']) or 'none'}")
 
