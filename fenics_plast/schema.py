@@ -390,7 +390,8 @@ SCHEMA: dict[str, Table] = {
         "(reaction, tool_force) and energies are those of the whole 360° body.",
         collection=True, discriminator="quantity", keys={
             "quantity": Key("str", REQUIRED, quantity_doc(), choices=tuple(KINDS)),
-            "group": Key("str", OPTIONAL, "Facet group (extent: absent = the whole body).",
+            "group": Key("str", OPTIONAL, "Facet group: extent and group_mean measure it (extent: absent = the "
+                         "whole body); displacement and position take the node nearest `point` among its nodes.",
                          when={"quantity": taking("group")}),
             "tool": Key("str", REQUIRED, "Tool name.", when={"quantity": taking("tool")}),
             "contact": Key("str", REQUIRED, "Name of a [contact.<name>] pair: its master surface (a tool, or the "
@@ -404,7 +405,8 @@ SCHEMA: dict[str, Table] = {
                          when={"quantity": taking("point")}),
             "which": Key("str", "max", "Largest or smallest.", choices=("max", "min"),
                          when={"quantity": taking("which")}),
-            "regions": Key("strs", OPTIONAL, "Cell regions (absent = the whole body).",
+            "regions": Key("strs", OPTIONAL, "Cell regions (absent = the whole body); displacement and position "
+                           "take the node nearest `point` among their cells' nodes.",
                            when={"quantity": taking("regions")}),
             "unit": Key("str", "kN", "Force unit of the column.", choices=_FORCE_UNITS,
                         when={"quantity": taking("unit")}),

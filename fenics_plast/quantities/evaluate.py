@@ -39,14 +39,15 @@ class Quantities:
                 setup(name, o, self)
         self.automatic = [m for m in AUTOMATIC.values() if m.active(body)]
 
-    def nearest_node(self, p):
+    def nearest_node(self, p, among=None):
         """[index] of the owned node nearest the reference point ``p`` on the rank that holds it, [] on
-        the others."""
-        X = self.body.X[: self.body.n_owned_nodes]
+        the others; ``among``: owned node indices to choose from (a group's or region's nodes; default all)."""
+        nodes = np.arange(self.body.n_owned_nodes) if among is None else np.asarray(among, dtype=np.int64)
+        X = self.body.X[nodes]
         d = np.linalg.norm(X - p, axis=1) if len(X) else np.array([np.inf])
         i = int(np.argmin(d))
         best = self.body.comm.allreduce((float(d[i]), self.body.comm.rank), op=MPI.MINLOC)
-        return np.array([i] if self.body.comm.rank == best[1] and len(X) else [], dtype=np.int64)
+        return np.array([nodes[i]] if self.body.comm.rank == best[1] and len(X) else [], dtype=np.int64)
 
     # -- one output -------------------------------------------------------------------------
     def value(self, name, o, time, row):
