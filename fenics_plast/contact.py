@@ -330,10 +330,10 @@ class ContactPair:
         return self._sum(self._tangential_force)
 
     def contact_nodes(self):
-        """The pair's owned slave nodes now: current positions x (n, dim) [mm], gaps g (n,) [mm] (negative:
-        pressed in), pressures p (n,) [MPa] and tributary reference areas A (n,) [mm^2] (2 pi R included in
-        axisymmetry): what the contact outputs (contact_area, contact_radius, contact_pressure) read."""
+        """The pair's owned group nodes now, a :class:`~fenics_plast.solvers.contact_law.ContactNodes`
+        (slipping or not is not told node by node on this route: every node in contact counts as stuck)."""
         from fenics_plast.solvers.body_surface import tributary_areas
+        from fenics_plast.solvers.contact_law import ContactNodes
         s = self.contact.solver
         X, idx = self._owned_nodes()
         if not hasattr(self, "_areas"):
@@ -341,7 +341,8 @@ class ContactPair:
             self._areas = tributary_areas(Vc, s.kin.weight, self.facet_tags, self.tag)[
                 self._node_blocks * Vc.dofmap.index_map_bs]
         g = self.nodal_gaps()
-        return X + s.w.x.array[idx], g, self.penalty * np.maximum(-g, 0.0), self._areas
+        return ContactNodes(X + s.w.x.array[idx], g, self.penalty * np.maximum(-g, 0.0), self._areas,
+                            self._node_blocks, np.zeros(len(g), dtype=bool))
 
     def nodal_gaps(self):
         """Gaps [mm] at the owned nodes of the pair's facets (current state), numpy (n,)."""

@@ -13,7 +13,7 @@ from dolfinx import io
 
 from fenics_plast.checkpoint import Checkpointer, scene_settings
 
-__all__ = ["open_fields", "checkpointer", "write_final_shape", "draw_plots", "penetration_report", "warn",
+__all__ = ["open_fields", "contact_fields", "checkpointer", "write_final_shape", "draw_plots", "penetration_report", "warn",
            "PENETRATION_WARNING"]
 
 
@@ -81,6 +81,19 @@ def open_fields(problem, output, comm, mesh, name="fields"):
     xf = io.XDMFFile(comm, str(path), "w")
     xf.write_mesh(mesh)
     return xf
+
+
+def contact_fields(b, V) -> list:
+    """The contact fields of the run ``b``'s pairs (``b.pairs``) on the displacement space ``V``, updated to the
+    present state (:class:`fenics_plast.contact_fields.ContactFields`, made once per build: a remeshed run's
+    new build gets its own); [] without pairs. Collective."""
+    if not b.pairs:
+        return []
+    if getattr(b, "contact_fields", None) is None:
+        from fenics_plast.contact_fields import ContactFields
+        b.contact_fields = ContactFields(b.pairs, V)
+    b.contact_fields.update()
+    return b.contact_fields.functions
 
 
 def checkpointer(problem, output, comm):

@@ -27,7 +27,7 @@ from fenics_plast.kinematics import Kinematics
 from fenics_plast.errors import RunError, SceneError, Terms
 from fenics_plast.schema import US, key
 from fenics_plast.quantities import Body, Quantities
-from fenics_plast.results import checkpointer, draw_plots, open_fields, penetration_report, write_final_shape
+from fenics_plast.results import checkpointer, contact_fields, draw_plots, open_fields, penetration_report, write_final_shape
 from fenics_plast.scene_mesh import read_mesh
 from fenics_plast.solvers.collapse import TimeStepCollapse
 from fenics_plast.solvers.explicit import ExplicitDynamics
@@ -279,6 +279,8 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
         fields_guard(s, f"{problem.name}: fields at t = {t / US:.6g} us")
         run.xf.write_function(s.u, t / US)
         for f in s.qmap.fields(out=state["fields"]).values():     # eqps, temperature (Johnson-Cook) [K]
+            run.xf.write_function(f, t / US)
+        for f in contact_fields(run.b, s.V):
             run.xf.write_function(f, t / US)
         if s.erosion_ratio > 0.0:   # 1 on the eroded cells (a Threshold in ParaView hides them)
             state["eroded"] = eroded_field(s, state.get("eroded"))

@@ -21,7 +21,7 @@ from fenics_plast.errors import SceneError
 from fenics_plast.schema import component_index
 from fenics_plast.quadrature import von_mises
 from fenics_plast.quantities import Body, Quantities
-from fenics_plast.results import checkpointer, draw_plots, open_fields, penetration_report, write_final_shape
+from fenics_plast.results import checkpointer, contact_fields, draw_plots, open_fields, penetration_report, write_final_shape
 from fenics_plast.scene_mesh import read_mesh
 from fenics_plast.solvers.static import StaticSolver
 
@@ -262,6 +262,8 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
                                                  out=fields.get("von_mises_stress"))
         run.xf.write_function(s.displacement_function(), t)
         for f in fields.values():
+            run.xf.write_function(f, t)
+        for f in contact_fields(run.b, run.b.Vc):
             run.xf.write_function(f, t)
 
     loop = None

@@ -20,8 +20,8 @@ class Body:
     * ``reaction(dofs)`` [N] for owned V-dof indices of one component (unrolled, V numbering);
     * ``tool_force(tool)`` -> (Fx, Fy[, Fz]) [N]; ``tool_translation(tool, t)`` -> (dx, dy[, dz]) [mm];
       ``contact_force(pair)`` -> (Fx, Fy[, Fz]) [N] of a contact pair's master surface on its group;
-      ``contact_nodes(pair)`` -> (x (n, dim) [mm], g (n,) [mm], p (n,) [MPa], A (n,) [mm^2]) of its owned group
-      nodes: current positions, gaps, pressures, tributary reference areas (the pairs' ``contact_nodes``);
+      ``contact_nodes(pair)`` -> its owned group nodes' positions, gaps, pressures, areas, indices and slip
+      (:class:`fenics_plast.solvers.contact_law.ContactNodes`, the pairs' ``contact_nodes``);
       ``energies()`` -> dict [N mm] (explicit only);
     * what the automatic quantities read (:data:`fenics_plast.quantities.registry.AUTOMATIC`), each None
       when the run has none: ``mass_scaling`` (``stats()``: the solver's mass-scaling statistics,

@@ -220,10 +220,10 @@ class TwoPassPair:
         """The group's nodes (the forward pass's :meth:`contact_nodes`), their pressures the interface's: each
         pass carries a share of the force, so the forward pass's pressures are scaled by the total normal force
         over the forward pass's (collective)."""
-        x, g, p, area = self.forward.contact_nodes()
+        c = self.forward.contact_nodes()
         forward = self.forward.normal_force()
         total = forward + self.backward.normal_force()
-        return x, g, p * (total / forward if forward > 0.0 else 1.0), area
+        return c._replace(p=c.p * (total / forward if forward > 0.0 else 1.0))
 
     def max_penetration_run(self):
         return max(self.forward.max_penetration_run(), self.backward.max_penetration_run())

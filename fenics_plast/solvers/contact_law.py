@@ -29,6 +29,7 @@ Units mm, N, MPa.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -109,6 +110,17 @@ def node_law(g, N, dN, s, t_n, N_n, p_n, area, eps, eps_t, mu, law, f, t, K):
     for i in range(dim):
         f[i] += area * t[i]
     return p, 0.0 if stick else 1.0
+
+
+class ContactNodes(NamedTuple):
+    """A contact pair's owned group nodes now (each pair's ``contact_nodes()``): what the contact outputs
+    (:mod:`fenics_plast.quantities.kinds.contact_area` and its siblings) and fields read."""
+    x: np.ndarray        # (n, dim) current positions [mm]
+    g: np.ndarray        # (n,) gaps [mm], negative: pressed in (inf: no master facet found)
+    p: np.ndarray        # (n,) normal pressures [MPa]
+    area: np.ndarray     # (n,) tributary reference areas [mm^2] (2 pi R included in axisymmetry)
+    nodes: np.ndarray    # (n,) the nodes' indices (blocks) in the displacement's CG1 space
+    slip: np.ndarray     # (n,) bool: in contact and slipping (frictionless: every node in contact)
 
 
 class NodeHistory:

@@ -176,16 +176,16 @@ class ExplicitContactPair:
         return self._sum(float(np.dot(c.area[self.sl], c.t_scal[self.sl])))
 
     def contact_nodes(self):
-        """The pair's owned slave nodes now: current positions x (n, dim) [mm], gaps g (n,) [mm] (negative:
-        pressed in), pressures p (n,) [MPa] and tributary reference areas A (n,) [mm^2] (2 pi R included in
-        axisymmetry): what the contact outputs (contact_area, contact_radius, contact_pressure) read."""
+        """The pair's owned group nodes now, a :class:`~fenics_plast.solvers.contact_law.ContactNodes`."""
+        from fenics_plast.solvers.contact_law import ContactNodes
         c, s = self.set, self.set.solver
         x = self.X + s.u.x.array[self.dofs]
         if self.kind == ck.BODY or not self.compiled:
             g = c.gN[self.sl, 0].copy()
         else:
             g = self.tool.gap_np(x, float(s.t))[0]
-        return x, g, c.p_hist[self.sl].copy(), c.area[self.sl]
+        p = c.p_hist[self.sl].copy()
+        return ContactNodes(x, g, p, c.area[self.sl], self.dofs[:, 0] // self.dim, (p > 0.0) & (c.slip[self.sl] > 0.0))
 
     def max_penetration(self):
         """Largest penetration -g over the pair's nodes now [mm] (0 if none penetrates)."""

@@ -51,7 +51,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from fenics_plast.solvers.body_surface import BodySurface, TwoPassPair, tributary_areas
-from fenics_plast.solvers.contact_law import COULOMB, QUASI_COULOMB, NodeHistory, node_law
+from fenics_plast.solvers.contact_law import COULOMB, QUASI_COULOMB, ContactNodes, NodeHistory, node_law
 from fenics_plast.solvers.surface_gaps import nearest_points, segment_nearest, triangle_nearest
 from fenics_plast.solvers.tool_gaps import FLAGS
 
@@ -211,11 +211,10 @@ class SurfaceContactTerm:
 
     # -- reports (collective) --------------------------------------------------------------------
     def contact_nodes(self):
-        """The pair's owned slave nodes now: current positions x (n, dim) [mm], gaps g (n,) [mm] (negative:
-        pressed in), pressures p (n,) [MPa] and tributary reference areas A (n,) [mm^2] (2 pi R included in
-        axisymmetry): what the contact outputs (contact_area, contact_radius, contact_pressure) read."""
+        """The pair's owned group nodes now, a :class:`~fenics_plast.solvers.contact_law.ContactNodes`."""
         self.evaluate()
-        return self.X + self.solver.w.x.array[self.vmap[self.dofs]], self.g.copy(), self.p.copy(), self.area
+        return ContactNodes(self.X + self.solver.w.x.array[self.vmap[self.dofs]], self.g.copy(), self.p.copy(),
+                            self.area, self.dofs[:, 0] // self.dim, (self.g < 0.0) & (self.slip > 0.0))
 
     def pressures(self):
         """(positions (n, dim) [mm], p (n,) [MPa]) of this rank's slave nodes at the last residual."""

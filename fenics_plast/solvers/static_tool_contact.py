@@ -32,7 +32,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from fenics_plast.solvers.contact_kernels import GENERIC
-from fenics_plast.solvers.contact_law import COULOMB, QUASI_COULOMB, NodeHistory, node_law
+from fenics_plast.solvers.contact_law import COULOMB, QUASI_COULOMB, ContactNodes, NodeHistory, node_law
 from fenics_plast.solvers.tool_gaps import FLAGS, gap_2d, gap_3d
 from fenics_plast.tools import compiled_shape
 
@@ -149,6 +149,7 @@ class ToolContactTerm:
         self.kind, self.params = shape if shape is not None else (GENERIC, np.zeros(0))
         Vc, _ = s.displacement_space()
         self.X, self.idx, blocks = pair_nodes(s, facet_tags, tag, d)       # (n, dim) [mm], (n, dim) w entries
+        self.blocks = blocks
         self.area = tributary_areas(Vc, s.kin.weight, facet_tags, tag)[blocks * Vc.dofmap.index_map_bs]
         n = len(self.X)
         self.hist = NodeHistory(n, d, dof_keys(Vc)[blocks * Vc.dofmap.index_map_bs])
@@ -240,11 +241,10 @@ class ToolContactTerm:
         return int(tot[0]), int(tot[1])
 
     def contact_nodes(self):
-        """The pair's owned slave nodes now: current positions x (n, dim) [mm], gaps g (n,) [mm] (negative:
-        pressed in), pressures p (n,) [MPa] and tributary reference areas A (n,) [mm^2] (2 pi R included in
-        axisymmetry): what the contact outputs (contact_area, contact_radius, contact_pressure) read."""
+        """The pair's owned group nodes now, a :class:`~fenics_plast.solvers.contact_law.ContactNodes`."""
         self.evaluate()
-        return self.X + self.solver.w.x.array[self.idx], self.g.copy(), self.p.copy(), self.area
+        return ContactNodes(self.X + self.solver.w.x.array[self.idx], self.g.copy(), self.p.copy(), self.area,
+                            self.blocks, (self.g < 0.0) & (self.slip > 0.0))
 
     def nodal_gaps(self):
         """Gaps [mm] at the owned nodes of the pair's facets (current state), numpy (n,)."""

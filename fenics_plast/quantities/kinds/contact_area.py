@@ -20,9 +20,9 @@ def columns(name, o):
 def area_and_force(q, pair):
     """(area in contact [mm^2], normal force sum A p over it [N]) of ``pair``'s nodes, all ranks."""
     from mpi4py import MPI
-    _, g, p, area = q.body.contact_nodes(pair)
-    on = g < 0.0
-    local = np.array([area[on].sum(), (area * p)[on].sum()], dtype=float)
+    c = q.body.contact_nodes(pair)
+    on = c.g < 0.0
+    local = np.array([c.area[on].sum(), (c.area * c.p)[on].sum()], dtype=float)
     total = np.zeros(2)
     q.body.comm.Allreduce(local, total, op=MPI.SUM)
     return float(total[0]), float(total[1])

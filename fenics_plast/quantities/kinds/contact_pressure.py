@@ -4,8 +4,6 @@ scaled to carry the interface's whole normal force) or its mean over the area in
 the normal force over :mod:`contact_area`'s area)."""
 from __future__ import annotations
 
-import numpy as np
-
 from fenics_plast.scene_key import Key
 
 from .contact_area import area_and_force
@@ -29,5 +27,5 @@ def value(name, o, q, time, row):
     if o.statistic == "mean":
         area, force = area_and_force(q, o.contact)
         return [force / area if area > 0.0 else 0.0]
-    _, g, p, _ = q.body.contact_nodes(o.contact)
+    p = q.body.contact_nodes(o.contact).p
     return [q.body.comm.allreduce(float(p.max()) if p.size else 0.0, op=MPI.MAX)]

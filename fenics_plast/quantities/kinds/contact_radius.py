@@ -45,6 +45,6 @@ def radius(x, g, p, three_d):
 
 def value(name, o, q, time, row):
     b = q.body
-    x, g, p, _ = b.contact_nodes(o.contact)
-    gather = [np.concatenate(b.comm.allgather(np.asarray(v, dtype=float))) for v in (x, g, p)]
+    c = b.contact_nodes(o.contact)
+    gather = [np.concatenate(b.comm.allgather(np.asarray(v, dtype=float))) for v in (c.x, c.g, c.p)]
     return [radius(*gather, gather[0].shape[1] == 3)]
