@@ -138,16 +138,23 @@ PENALTY_HINT_RATIO = 100.0
 
 
 def _penalty_hint(b, pairs) -> str:
-    """A sentence naming the contact pairs whose penalty is far from their default (a failure's likely
-    cause: too stiff makes Newton's systems ill-conditioned and its steps overshoot, too soft lets the
-    body through), or ""."""
+    """A sentence naming the contact pairs whose penalty is far from their default, with what the default
+    would do at the last converged state (how deep the nodes would then be in, against the cells' depth), or
+    "". A possible cause, not a diagnosis: too stiff makes Newton's systems ill-conditioned and its steps
+    overshoot, too soft lets the body through; the same penalty that fails between two bodies may converge
+    against a tool or with friction (issue 36: a kink of the master surface's normal was the cause there).
+    Collective (the pairs' penetrations)."""
     hints = []
+    b.solver.restore()              # (the last converged state, where the penetrations are measured)
     for n, p in pairs.items():
-        ratio = p.penalty / b.contact_pairs[n].default_penalty
+        spec = b.contact_pairs[n]
+        ratio = p.penalty / spec.default_penalty
         if ratio > PENALTY_HINT_RATIO or ratio < 1.0 / PENALTY_HINT_RATIO:
+            depth = p.max_penetration() * ratio
             hints.append(f"contact.{n}.penalty = {p.penalty:.3g} N/mm^3 is {ratio:.3g} times this pair's default "
-                         f"({b.contact_pairs[n].default_penalty:.3g} N/mm^3)")
-    return f" Likely cause: {'; '.join(hints)}." if hints else ""
+                         f"({spec.default_penalty:.3g} N/mm^3, at which the nodes would be about {depth:.2g} mm in, "
+                         f"{100 * depth / spec.depth:.2g} % of a cell's depth, at the last converged load)")
+    return f" Possible cause: {'; '.join(hints)}." if hints else ""
 
 
 def load_steps(problem) -> list[tuple[str, float, int, float]]:

@@ -53,7 +53,8 @@ def test_soft_penalty_warns_in_explicit_runs(tmp_path):
 
 
 def test_stiff_penalty_failure_names_it(tmp_path):
-    """1e11 x the default: the run fails and its message names the penalty as the likely cause. Where Newton
+    """1e11 x the default: the run fails and its message names the penalty as a possible cause, with how deep
+    the nodes would be at the default. Where Newton
     ends on an inverted cell the message names the cell and its place (before: 'material update returned
     non-finite stress/tangent (min det Fu = nan)'); which of an inverted cell or a residual that no longer
     converges comes first at such a penalty depends on round-off (the development machine: the cell; fresh
@@ -66,7 +67,8 @@ def test_stiff_penalty_failure_names_it(tmp_path):
     assert p.returncode == 1
     s = json.loads((tmp_path / "stiff" / "summary.json").read_text())
     assert not s["converged"]
-    assert "Likely cause: contact.punch.penalty = " in s["error"] and "times this pair's default" in s["error"]
+    assert "Possible cause: contact.punch.penalty = " in s["error"] and "times this pair's default" in s["error"]
+    assert "% of a cell's depth" in s["error"], s["error"]
     if "in cell " in s["error"]:
         assert "reference centre at x = " in s["error"]
     else:
