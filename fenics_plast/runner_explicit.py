@@ -27,7 +27,8 @@ from fenics_plast.kinematics import Kinematics
 from fenics_plast.errors import RunError, SceneError, Terms
 from fenics_plast.schema import US, key
 from fenics_plast.quantities import Body, Quantities
-from fenics_plast.results import checkpointer, contact_fields, draw_plots, open_fields, penetration_report, write_final_shape
+from fenics_plast.results import (checkpointer, contact_fields, draw_plots, open_fields, penetration_report,
+                                  write_final_shape)
 from fenics_plast.scene_mesh import read_mesh
 from fenics_plast.solvers.collapse import TimeStepCollapse
 from fenics_plast.solvers.explicit import ExplicitDynamics

@@ -21,7 +21,8 @@ from fenics_plast.errors import SceneError
 from fenics_plast.schema import component_index
 from fenics_plast.quadrature import von_mises
 from fenics_plast.quantities import Body, Quantities
-from fenics_plast.results import checkpointer, contact_fields, draw_plots, open_fields, penetration_report, write_final_shape
+from fenics_plast.results import (checkpointer, contact_fields, draw_plots, open_fields, penetration_report,
+                                  write_final_shape)
 from fenics_plast.scene_mesh import read_mesh
 from fenics_plast.solvers.static import StaticSolver
 

@@ -15,10 +15,10 @@ from scene_runs import ROOT, history, needs_mpirun, run_scene  # noqa: E402
 
 
 def contact_sets(pair):
-    return (f"outputs.c_area.quantity=contact_area", f"outputs.c_area.contact={pair}",
-            f"outputs.c_radius.quantity=contact_radius", f"outputs.c_radius.contact={pair}",
-            f"outputs.c_peak.quantity=contact_pressure", f"outputs.c_peak.contact={pair}",
-            f"outputs.c_mean.quantity=contact_pressure", f"outputs.c_mean.contact={pair}",
+    return ("outputs.c_area.quantity=contact_area", f"outputs.c_area.contact={pair}",
+            "outputs.c_radius.quantity=contact_radius", f"outputs.c_radius.contact={pair}",
+            "outputs.c_peak.quantity=contact_pressure", f"outputs.c_peak.contact={pair}",
+            "outputs.c_mean.quantity=contact_pressure", f"outputs.c_mean.contact={pair}",
             "outputs.c_mean.statistic=mean", "analysis.end_time=5", "output.xdmf=false", "output.plots=false")
 
 

@@ -144,8 +144,8 @@ def test_node_to_segment_tangent_is_the_force_derivative(case, friction):
         def residual(xs, verts, dxs, dverts):
             r, K, g, N = np.zeros((1, 6)), np.zeros((1, 6, 6)), np.zeros(1), np.zeros((1, 2))
             t, p, slip, pressed = np.zeros((1, 2)), np.zeros(1), np.zeros(1), np.zeros(1, dtype=bool)
-            _node_terms(xs, dxs, np.array([0.7]), np.array([0]), verts, dverts, F, verts, law, t_n, N_n, p_n, r, K, g, N,
-                        t, p, slip, pressed)
+            _node_terms(xs, dxs, np.array([0.7]), np.array([0]), verts, dverts, F, verts, law, t_n, N_n, p_n, r, K,
+                        g, N, t, p, slip, pressed)
             return r[0], K[0], g[0], slip[0], pressed[0]
 
         r, K, g, slip, pressed = residual(x, V, dx, dV)

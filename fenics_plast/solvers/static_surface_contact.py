@@ -140,8 +140,8 @@ class SurfaceContactTerm:
         nearest_points(surf, x, self.skip, self.g, self.N, self.facet, self.weights, facing=facing)
         h = self.hist
         _node_terms(x, du[self.dofs], self.area, self.facet, surf.vertices, self.surface.increment, surf.facets,
-                    surf.vertex_normals, self._law, h.t_n, h.N_n, h.p_n, self.r, self.K, self.g, self.N, self.t, self.p, self.slip,
-                    self.pressed)
+                    surf.vertex_normals, self._law, h.t_n, h.N_n, h.p_n, self.r, self.K, self.g, self.N, self.t,
+                    self.p, self.slip, self.pressed)
 
     def residual(self, b):
         """b -= the contact forces at the solver's current state (global entries; off-process ones are
@@ -278,7 +278,9 @@ def surface_terms(contact, facet_tags, tag, master_tag, *, penalty, friction, la
 def _element_force(P, D, nfv, area, n_f, NV, size, law, t_n, N_n, p_n, f, t):
     """f (1 + nfv, dim) = the forces [N] on the slave (row 0, position P[0]) and on the facet's vertices
     (P[1:]) of the element of slave area ``area`` [mm^2] and facet normal n_f (its own, from the vertices'
-    order; only its side is used at edges and corners), by :func:`~fenics_plast.solvers.contact_law.node_law`
+    order; only its side is used at edges and corners; inside a triangle N is the vertex normals NV (nfv, 3)
+    interpolated, NV (0, dim) in 2-D: n_f; ``size`` [mm] the facet's longest edge, for :data:`ON_EDGE`), by
+    :func:`~fenics_plast.solvers.contact_law.node_law`
     (law = (eps, eps_t, mu, law code); t_n (dim,), N_n (dim,), p_n: the slave's history) with the slip
     s = D[0] - sum_a w_a D[1 + a] (D (1 + nfv, dim) the nodes' displacements since the history's state
     [mm], w the nearest point's weights); t (dim,) gets the slave's tangential traction [MPa]. Returns
@@ -386,8 +388,8 @@ def _segment_tangent(P, xi, g, k, K):
 def _node_terms(x, dx, area, facet, V, DV, F, VN, law, t_n, N_n, p_n, r, K, g, N, t, p, slip, pressed):
     """Per slave node i (positions x (n, dim) [mm], displacements since the last commit dx (n, dim) [mm]) with a
     facet (facet[i] >= 0) of the surface V (nv, dim) [mm] (its vertices' displacements since the commit DV
-    (nv, dim)), F (nf, nfv): r[i] = -f (the residual's entries: the slave's dim components, then each facet
-    vertex's) and K[i] = -df/dx, the node-to-segment element's analytic tangent inside a segment without
+    (nv, dim), unit vertex normals VN (nv, dim), read in 3-D), F (nf, nfv): r[i] = -f (the residual's
+    entries: the slave's dim components, then each facet vertex's) and K[i] = -df/dx, the node-to-segment element's analytic tangent inside a segment without
     friction, else central differences; g[i], N[i] the gap and normal (overwriting the search's with the
     element's own, the same numbers inside a facet), t[i], p[i], slip[i] the law's (law, t_n, N_n, p_n: see
     :func:`_element_force`); pressed[i] whether the node is pressed or touching (g <= TOUCHING x the facet's
@@ -430,8 +432,8 @@ def _node_terms(x, dx, area, facet, V, DV, F, VN, law, t_n, N_n, p_n, r, K, g, N
                 for j in range(dim):
                     e += (V[F[fc, a], j] - V[F[fc, b], j]) ** 2
                 size = max(size, math.sqrt(e))
-        gi, Ni, p[i], slip[i] = _element_force(P, D, nfv, area[i], _facet_normal(P), NVf, size, law, t_n[i], N_n[i], p_n[i],
-                                               f, t[i])
+        gi, Ni, p[i], slip[i] = _element_force(P, D, nfv, area[i], _facet_normal(P), NVf, size, law, t_n[i],
+                                               N_n[i], p_n[i], f, t[i])
         g[i] = gi
         for j in range(dim):
             N[i, j] = Ni[j]
