@@ -99,6 +99,23 @@ def test_hertz_contact_outputs(cells):
     assert abs(got["contact_area"] / (math.pi * a_h ** 2) - 1) < 0.04, (got, a_h)
 
 
+def test_hertz_cylinder_contact_outputs():
+    """The same mesh in plane strain (a half cylinder R = 10 mm on a block, x = 0 a symmetry plane, 20 cells
+    per mm): Hertz's line contact for the force per mm P (twice the half model's), half-width
+    b = sqrt(4 P R / (pi E*)) and p0 = 2 P / (pi b), from the contact outputs: within 2 % (measured b -0.53 %,
+    p0 +0.25 %; the mean pressure pi p0 / 4 +1.3 %)."""
+    b = run_static("hertz_sphere.toml", "mesh.geometry=plane_strain", "boundary.axis.type=symmetry")
+    got, _, _, force = hertz_outputs(b)
+    e_star = E / (2 * (1 - NU ** 2))
+    P = 2.0 * force
+    half_width = math.sqrt(4 * P * R / (math.pi * e_star))
+    p0 = 2 * P / (math.pi * half_width)
+    print(f"\nHertz cylinder: {got}; Hertz b {half_width:.5f} mm, p0 {p0:.2f} MPa")
+    assert abs(got["contact_radius"] / half_width - 1) < 0.02, (got, half_width)
+    assert abs(got["peak_pressure"] / p0 - 1) < 0.02, (got, p0)
+    assert abs(got["mean_pressure"] / (math.pi / 4 * p0) - 1) < 0.03, (got, p0)
+
+
 @pytest.mark.slow
 def test_hertz_sphere_fine_within_1_percent():
     """40 cells per mm (0.025 mm at the contact): within 1 % (measured -0.17 % and -0.52 %)."""
