@@ -218,7 +218,8 @@ def test_hertz_serial_equals_two_ranks(tmp_path):
         scene = REPO / "demos" / "hertz_sphere.toml"
         r = subprocess.run([*launch, sys.executable, "-m", "fenics_plast.cli", "run", str(scene), "--out",
                             str(tmp_path / name), "--set", "mesh.parameters.cells_contact=10", "--set",
-                            "output.xdmf=false"], capture_output=True, text=True, timeout=900, env=env)
+                            "output.xdmf=true", "--set", "output.plots=false"], capture_output=True, text=True,
+                           timeout=900, env=env)
         assert r.returncode == 0, r.stderr[-3000:]
         h = np.genfromtxt(tmp_path / name / "history.csv", delimiter=",", names=True)
         # the block's force on the ball through the contact balances the press's reaction
@@ -227,6 +228,23 @@ def test_hertz_serial_equals_two_ranks(tmp_path):
                                                       "mean_pressure_MPa", "contact_area_mm2")]))
     # the force and the contact outputs (radius, peak and mean pressure, area) alike
     np.testing.assert_allclose(forces[1], forces[0], rtol=1e-8, atol=1e-12)
+    # the contact fields alike (the nodes' order differs between partitions: their sorted values)
+    fields = [contact_field_values(tmp_path / name / "fields.h5") for name in ("serial", "mpi")]
+    for k in fields[0]:
+        np.testing.assert_allclose(fields[1][k], fields[0][k], rtol=1e-8, atol=1e-9 * np.abs(fields[0][k]).max(),
+                                   err_msg=k)
+
+
+def contact_field_values(path):
+    """{field: its sorted values at the last time} of the contact fields in fields.h5."""
+    import h5py
+    with h5py.File(path, "r") as f:
+        out = {}
+        for name in ("contact_pressure_hertz", "contact_gap_hertz", "contact_status_hertz"):
+            steps = f["Function"][name]
+            last = max(steps, key=lambda k: float(k.replace("_", ".")))
+            out[name] = np.sort(steps[last][:, 0])
+        return out
 
 
 @pytest.mark.mpi
