@@ -13,8 +13,8 @@ from dolfinx import io
 
 from fenics_plast.checkpoint import Checkpointer, scene_settings
 
-__all__ = ["open_fields", "contact_fields", "checkpointer", "write_final_shape", "draw_plots", "penetration_report", "warn",
-           "PENETRATION_WARNING"]
+__all__ = ["open_fields", "contact_fields", "checkpointer", "write_final_shape", "draw_plots", "penetration_report",
+           "warn", "PENETRATION_WARNING"]
 
 
 #: a contact pair whose largest penetration exceeds this fraction of the depth of the cells along its

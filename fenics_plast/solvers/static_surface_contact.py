@@ -389,8 +389,8 @@ def _node_terms(x, dx, area, facet, V, DV, F, VN, law, t_n, N_n, p_n, r, K, g, N
     """Per slave node i (positions x (n, dim) [mm], displacements since the last commit dx (n, dim) [mm]) with a
     facet (facet[i] >= 0) of the surface V (nv, dim) [mm] (its vertices' displacements since the commit DV
     (nv, dim), unit vertex normals VN (nv, dim), read in 3-D), F (nf, nfv): r[i] = -f (the residual's
-    entries: the slave's dim components, then each facet vertex's) and K[i] = -df/dx, the node-to-segment element's analytic tangent inside a segment without
-    friction, else central differences; g[i], N[i] the gap and normal (overwriting the search's with the
+    entries: the slave's dim components, then each facet vertex's) and K[i] = -df/dx, the node-to-segment
+    element's analytic tangent inside a segment without friction, else central differences; g[i], N[i] the gap and normal (overwriting the search's with the
     element's own, the same numbers inside a facet), t[i], p[i], slip[i] the law's (law, t_n, N_n, p_n: see
     :func:`_element_force`); pressed[i] whether the node is pressed or touching (g <= TOUCHING x the facet's
     longest edge) and so has a tangent. Nodes without a facet get g = inf and zeros."""
