@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from scene_runs import ROOT, run_scene  # noqa: E402
+from scene_runs import ROOT, needs_mpirun, run_scene  # noqa: E402
 
 QUIET = ("output.xdmf=false", "output.plots=false")
 
@@ -42,3 +42,16 @@ def test_group_mean_and_a_point_of_a_group_on_the_billet(tmp_path):
           f"{s['rim_mm']:.6f} mm, bulge {s['bulge_radius_mm']:.6f} mm")
     assert -s["top_uz_mm"] < s["die_travel_mm"] and s["die_travel_mm"] + s["top_uz_mm"] < 0.03
     assert s["rim_mm"] <= s["bulge_radius_mm"] + 1e-12 and s["rim_mm"] > 10.0
+
+
+@needs_mpirun
+@pytest.mark.mpi
+def test_group_outputs_two_ranks(tmp_path):
+    """The billet's group mean and its point of a group on 2 ranks as serially (to 1e-9)."""
+    sets = (*QUIET, "outputs.top_uz.quantity=group_mean", "outputs.top_uz.group=top", "outputs.top_uz.component=z",
+            "outputs.rim.quantity=position", "outputs.rim.point=[10.0, 10.0]", "outputs.rim.component=r",
+            "outputs.rim.group=outer")
+    a = run_scene(ROOT / "docs" / "tutorial" / "billet.toml", tmp_path / "serial", *sets)
+    b = run_scene(ROOT / "docs" / "tutorial" / "billet.toml", tmp_path / "mpi", *sets, np_ranks=2)
+    for k in ("top_uz_mm", "rim_mm"):
+        assert b[k] == pytest.approx(a[k], rel=1e-9, abs=1e-12), (k, a[k], b[k])
