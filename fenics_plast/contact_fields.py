@@ -20,14 +20,10 @@ QUANTITIES = ("pressure", "gap", "status")
 
 
 def _sides(pair):
-    """The pair's sides as ContactNodes: one, or both passes of a two-pass pair (each pass's pressures scaled
-    to the interface's whole normal force)."""
-    if not hasattr(pair, "forward"):
-        return [pair.contact_nodes()]
-    fwd, bwd = pair.forward.normal_force(), pair.backward.normal_force()
-    total = fwd + bwd
-    return [c._replace(p=c.p * (total / own if own > 0.0 else 1.0))
-            for c, own in ((pair.forward.contact_nodes(), fwd), (pair.backward.contact_nodes(), bwd))]
+    """The pair's sides as ContactNodes: one, or both passes of a two-pass pair
+    (:meth:`~fenics_plast.solvers.body_surface.TwoPassPair.contact_sides`)."""
+    sides = getattr(pair, "contact_sides", None)
+    return sides() if sides is not None else [pair.contact_nodes()]
 
 
 class ContactFields:

@@ -216,14 +216,18 @@ class TwoPassPair:
     def max_penetration(self):
         return max(self.forward.max_penetration(), self.backward.max_penetration())
 
+    def contact_sides(self):
+        """Both passes' :meth:`contact_nodes` (the group's side, then the master's), each pass's pressures scaled
+        by the interface's normal force over its own: each pass carries a share of the force, the scaled
+        pressures the whole (collective)."""
+        own = (self.forward.normal_force(), self.backward.normal_force())
+        total = sum(own)
+        return [c._replace(p=c.p * (total / f if f > 0.0 else 1.0))
+                for c, f in zip((self.forward.contact_nodes(), self.backward.contact_nodes()), own)]
+
     def contact_nodes(self):
-        """The group's nodes (the forward pass's :meth:`contact_nodes`), their pressures the interface's: each
-        pass carries a share of the force, so the forward pass's pressures are scaled by the total normal force
-        over the forward pass's (collective)."""
-        c = self.forward.contact_nodes()
-        forward = self.forward.normal_force()
-        total = forward + self.backward.normal_force()
-        return c._replace(p=c.p * (total / forward if forward > 0.0 else 1.0))
+        """The group's side of :meth:`contact_sides` (collective)."""
+        return self.contact_sides()[0]
 
     def max_penetration_run(self):
         return max(self.forward.max_penetration_run(), self.backward.max_penetration_run())
