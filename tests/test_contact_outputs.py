@@ -14,8 +14,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from scene_runs import ROOT, history, needs_mpirun, run_scene  # noqa: E402
 
 
-def contact_sets(pair):
-    return ("outputs.c_area.quantity=contact_area", f"outputs.c_area.contact={pair}",
+def contact_sets(pair, group):
+    """The contact outputs of ``pair`` and the radial extent of its ``group`` (the face's reach from the axis)."""
+    return ("outputs.face_r.quantity=extent", f"outputs.face_r.group={group}", "outputs.face_r.component=radial",
+            "outputs.c_area.quantity=contact_area", f"outputs.c_area.contact={pair}",
             "outputs.c_radius.quantity=contact_radius", f"outputs.c_radius.contact={pair}",
             "outputs.c_peak.quantity=contact_pressure", f"outputs.c_peak.contact={pair}",
             "outputs.c_mean.quantity=contact_pressure", f"outputs.c_mean.contact={pair}",
@@ -25,18 +27,21 @@ def contact_sets(pair):
 COLUMNS = ("c_area_mm2", "c_radius_mm", "c_peak_MPa", "c_mean_MPa")
 
 
-@pytest.mark.parametrize("scene,pair", [("taylor_rod_on_rod", "interface"), ("taylor_bar_oblique", "face")])
-def test_explicit_contact_outputs(tmp_path, scene, pair):
-    """During the impact (5 us): a contact area within the bar's mushroomed end face, the zone's edge within
-    its radius, peak >= mean pressure >= 0 at every row, > 0 at the end (measured: rod on rod 16.1 mm^2,
-    3.78 mm, 2990 / 1596 MPa; the oblique 3-D bar 5.92 mm^2, 4.32 mm, 4801 / 1559 MPa)."""
-    s = run_scene(ROOT / "demos" / f"{scene}.toml", tmp_path / "out", *contact_sets(pair))
+@pytest.mark.parametrize("scene,pair,group", [("taylor_rod_on_rod", "interface", "upper_face"),
+                                              ("taylor_bar_oblique", "face", "bottom")])
+def test_explicit_contact_outputs(tmp_path, scene, pair, group):
+    """During the impact (5 us): the contact zone's edge within the face's reach from the axis (the face's
+    radial extent), a contact area within the disc of that radius, peak >= mean pressure >= 0 at every row,
+    > 0 at the end (measured: rod on rod 16.1 mm^2, 3.78 mm, 2990 / 1596 MPa; the oblique 3-D bar
+    5.92 mm^2, 4.32 mm, 4801 / 1559 MPa)."""
+    s = run_scene(ROOT / "demos" / f"{scene}.toml", tmp_path / "out", *contact_sets(pair, group))
     area, radius, peak, mean = (s[c] for c in COLUMNS)
     print(f"\n{scene}: area {area:.4g} mm^2, radius {radius:.4g} mm, peak {peak:.4g} MPa, mean {mean:.4g} MPa")
     h = history(tmp_path / "out")
     assert np.all(h["c_peak_MPa"] >= h["c_mean_MPa"] * (1 - 1e-12)) and np.all(h["c_mean_MPa"] >= 0.0)
-    assert 0.0 < area < np.pi * 4.6 ** 2
-    assert 0.0 < radius < 4.6
+    face = s["face_r_mm"]
+    assert 0.0 < radius <= face * (1 + 1e-12), (radius, face)
+    assert 0.0 < area < np.pi * face ** 2, (area, face)
     assert peak >= mean > 0.0
 
 
@@ -45,7 +50,7 @@ def test_explicit_contact_outputs(tmp_path, scene, pair):
 def test_explicit_contact_outputs_two_ranks(tmp_path):
     """The rod on rod's contact outputs on 2 ranks as serially (to 1e-9), and its contact fields (their sorted
     values at the last time: the nodes' order differs between partitions)."""
-    sets = [s for s in contact_sets("interface") if s != "output.xdmf=false"] + ["output.xdmf=true"]
+    sets = [s for s in contact_sets("interface", "upper_face") if s != "output.xdmf=false"] + ["output.xdmf=true"]
     run_scene(ROOT / "demos" / "taylor_rod_on_rod.toml", tmp_path / "serial", *sets)
     run_scene(ROOT / "demos" / "taylor_rod_on_rod.toml", tmp_path / "mpi", *sets, np_ranks=2)
     a, b = history(tmp_path / "serial"), history(tmp_path / "mpi")
