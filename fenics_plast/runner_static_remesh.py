@@ -19,8 +19,8 @@ __all__ = ["remeshed", "resumed_build"]
 def remeshed(problem, comm, b, remesher, reason, quantities, build, log=None, progress=None) -> SimpleNamespace:
     """The run ``b`` (:func:`build_static`'s, at a converged load t) on a new mesh of its deformed outline:
     the quadrature state transferred, the solver built anew (prescribed displacements counted from t,
-    the contact pairs' penalties kept, their stick points reset: friction builds up again from the next
-    increment's slip), equilibrium restored at the same load (one Newton solve, no load change) and the
+    the contact pairs' penalties kept, their committed tractions carried to the new nodes,
+    :func:`_carry_contact_history`), equilibrium restored at the same load (one Newton solve, no load change) and the
     jump of the one-column outputs across the remesh recorded (``quantities``: the old mesh's; ``build``:
     :func:`fenics_plast.runner_static.build_static`, passed in: the runner imports this module).
     Returns the new build with ``u_before`` (the displacement from the first mesh's reference at its
@@ -46,7 +46,7 @@ def remeshed(problem, comm, b, remesher, reason, quantities, build, log=None, pr
     total.x.array[:] = u.x.array + b.u_before
     rec.transfer_s = clock.lap()
     nb = build(problem, comm, tuple(new), log=log, progress=progress, since=t,
-                      penalties={n: p.penalty for n, p in b.pairs.items()})
+               penalties={n: p.penalty for n, p in b.pairs.items()})
     new_total = fem.Function(nb.Vc)
     transfer.nodal_function(total, new_total)
     carry_displacement(nb, new_total.x.array)
@@ -147,7 +147,7 @@ def resumed_build(problem, comm, b, saved, remesher, build, log, progress) -> Si
     new, entry = resumed_mesh(comm, saved, remesher)
     b.solver.close()
     nb = build(problem, comm, tuple(new), log=log, progress=progress, since=float(entry["since"]),
-                      penalties=entry["penalties"])
+               penalties=entry["penalties"])
     nb.since = float(entry["since"])
     restore_u_before(nb, nb.Vc, saved, new)
     return nb
