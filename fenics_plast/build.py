@@ -246,7 +246,8 @@ class ContactPair:
     group's facet tag, the penalty [N/mm^3] (``contact.<name>.penalty`` or ``default_penalty``), friction,
     law and tangential penalty [N/mm^3] (None: the solver's), the mean depth [mm] of the cells along the
     group and the pair's default penalty [N/mm^3] (0.3 E / depth); with a master group of the body, its
-    facet tag and whether the master's nodes are pressed against the group's facets too (two passes)."""
+    facet tag, whether the master's nodes are pressed against the group's facets too (two passes) and the
+    facet tags of the scene's symmetry and axis boundaries, across which a master surface continues."""
     name: str
     tool: Any
     tag: int
@@ -258,6 +259,7 @@ class ContactPair:
     default_penalty: float
     master_tag: int | None = None
     two_pass: bool = False
+    mirror_tags: tuple[int, ...] = ()
 
     def options(self) -> dict:
         """The keyword arguments of the solvers' ``add_pair`` / ``add_contact``."""
@@ -273,6 +275,7 @@ def contact_pairs(problem, mesh, facet_tags, groups, material, tools, penalties=
     from fenics_plast.meshed_tools import MeshedTool, check_tool_size
     out = {}
     axisymmetric = problem.mesh.geometry == "axisymmetric"
+    mirrors = tuple(groups[b.group][1] for b in problem.boundary.values() if b.type in ("symmetry", "axis"))
     for name, spec in problem.contact.items():
         tag = groups[spec.group][1]
         for key in ("group", "master"):
@@ -290,7 +293,8 @@ def contact_pairs(problem, mesh, facet_tags, groups, material, tools, penalties=
         if master is not None:
             out[name] = ContactPair(name, None, tag, eps, spec.friction, spec.law, spec.tangential_penalty, depth,
                                     default, master_tag=groups[master][1],
-                                    two_pass=spec.two_pass is not False and master != spec.group)
+                                    two_pass=spec.two_pass is not False and master != spec.group,
+                                    mirror_tags=mirrors)
             continue
         if not getattr(tools[spec.tool], "has_ufl_gap", True):
             _check_starting_side(spec, tools[spec.tool], mesh, facet_tags, tag, depth)

@@ -478,16 +478,19 @@ class PenaltyContact:
         return pair
 
     def add_surface_pair(self, facet_tags, tag, master_tag, *, penalty, friction=default("contact.*.friction"),
-                         law=default("contact.*.law"), tangential_penalty=None, two_pass, name=None):
+                         law=default("contact.*.law"), tangential_penalty=None, two_pass, mirror_tags=(),
+                         name=None):
         """Contact of the facets tagged ``tag`` with the body's own facets tagged ``master_tag`` (and back, with
         ``two_pass``): :func:`fenics_plast.solvers.static_surface_contact.surface_terms`, compiled whatever
-        ``compiled``. Returns the pair that reports (forces, status). Call before :meth:`attach`."""
+        ``compiled``; ``mirror_tags`` the facet tags of the symmetry planes (and axis) the surfaces continue
+        across. Returns the pair that reports (forces, status). Call before :meth:`attach`."""
         from fenics_plast.solvers.static_surface_contact import surface_terms
         if self._attached:
             raise RuntimeError("add contact pairs before attach()")
         _check_pair(None, None, penalty, friction, law, tangential_penalty)
         terms, pair = surface_terms(self, facet_tags, tag, master_tag, penalty=penalty, friction=friction, law=law,
-                                    tangential_penalty=tangential_penalty, two_pass=two_pass, name=name)
+                                    tangential_penalty=tangential_penalty, two_pass=two_pass,
+                                    mirror_tags=mirror_tags, name=name)
         self.pairs.extend(terms)
         return pair
 

@@ -173,7 +173,8 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
     tools = tools_of(problem, comm)
     specs = contact_pairs(problem, mesh, ft, groups, material, tools)
     pairs = {name: solver.add_contact(p.tool, ft, p.tag, **p.options()) if p.master_tag is None else
-             solver.add_surface_contact(ft, p.tag, p.master_tag, two_pass=p.two_pass, **p.options(), name=name)
+             solver.add_surface_contact(ft, p.tag, p.master_tag, two_pass=p.two_pass, **p.options(),
+                                        mirror_tags=p.mirror_tags, name=name)
              for name, p in specs.items()}
     # per node (regions, expressions of x, y, z) [mm/s]
     solver.set_velocity(initial_velocity_field(problem, solver.V, ct, groups))

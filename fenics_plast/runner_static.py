@@ -127,7 +127,7 @@ def add_contact(s, ft, specs):
     for name, p in specs.items():
         if p.master_tag is not None:        # two facet groups of the body
             pairs[name] = c.add_surface_pair(ft, p.tag, p.master_tag, **p.options(), two_pass=p.two_pass,
-                                             name=name)
+                                             mirror_tags=p.mirror_tags, name=name)
         else:
             pairs[name] = c.add_pair(p.tool, ft, p.tag, **p.options())
     c.attach()

@@ -7,7 +7,8 @@ point, weighted by that point's coordinates in the facet (the force a node-to-su
 exerts on both sides: Wriggers, Computational Contact Mechanics, 2006, ch. 8).
 
 :class:`BodySurface` holds the group's facets as one :class:`~fenics_plast.solvers.surface_gaps.FacetSurface`
-on every rank (segments in 2-D; a hexahedron's quadrilateral facets split into two triangles each in 3-D),
+on every rank (segments in 2-D; in 3-D a hexahedron's quadrilateral facet as four triangles about its centre,
+a vertex that moves with the mean of the four corners and passes its reactions to them a quarter each),
 oriented to point out of their cells. Under MPI each rank owns some of its vertices: :meth:`BodySurface.move`
 sums the owned rows of every rank into the whole surface's positions and displacement increments (one
 Allreduce of (nv, 2 dim) numbers a step; the surface is gathered whole on every rank, which suits forming
@@ -55,6 +56,18 @@ def _boundary_facets(V, facet_tags, tag):
     return imap.local_to_global(out.ravel().astype(np.int32)).reshape(out.shape).astype(np.int64), centroids
 
 
+def _nodes_on(V, facet_tags, tags):
+    """(n,) the global nodes (dof blocks) of V on the facets tagged any of ``tags``, every rank's (collective)."""
+    from dolfinx import fem
+    fdim = V.mesh.topology.dim - 1
+    imap = V.dofmap.index_map
+    blocks = [np.asarray(fem.locate_dofs_topological(V, fdim, facet_tags.find(t)), dtype=np.int32) for t in tags]
+    local = np.unique(np.concatenate(blocks)) if blocks else np.zeros(0, dtype=np.int32)
+    local = local[local < imap.size_local]
+    mine = imap.local_to_global(local).astype(np.int64)
+    return np.concatenate(V.mesh.comm.allgather(mine))
+
+
 def tributary_areas(V, weight, facet_tags, tag):
     """int N_i w dA0 [mm^2] of every owned node i of the CG1 vector space V, per unrolled dof ((n_own,)),
     over the facets tagged ``tag``; w the UFL weight (2 pi R in axisymmetry, 1 otherwise). Degree 4: exact
@@ -76,12 +89,15 @@ def tributary_areas(V, weight, facet_tags, tag):
 class BodySurface:
     """The facets tagged ``tag`` of a body as a master surface (see the module docstring); V the body's CG1
     vector space (its dof blocks are the nodes), X (local nodes, gdim) their reference positions [mm];
-    collective construction. ``vertex_nodes`` (nv,) the global node of each surface vertex, ``surface`` the
-    :class:`~fenics_plast.solvers.surface_gaps.FacetSurface` at the last :meth:`move`."""
+    collective construction. ``mirror_tags``: the facet tags of the model's planes (and axis) of symmetry;
+    where the surface ends on one, it continues as its mirror image (its vertices there are ``mirrored``
+    in :func:`~fenics_plast.solvers.surface_gaps.oriented_surface`). ``vertex_nodes`` (nv,) the global
+    node of each surface vertex, ``surface`` the :class:`~fenics_plast.solvers.surface_gaps.FacetSurface`
+    at the last :meth:`move`."""
 
     path = None     # as a "tool" of ExplicitContactPair: no path, so no translation (its ``fixed``)
 
-    def __init__(self, V, X, facet_tags, tag, name=None):
+    def __init__(self, V, X, facet_tags, tag, name=None, mirror_tags=()):
         comm = V.mesh.comm
         self.comm, self.tag, self.name = comm, tag, name or f"facets {tag}"
         bs = self.dim = V.dofmap.index_map_bs
@@ -107,19 +123,47 @@ class BodySurface:
         X0 = self._sum(X0)
         self.X = X0
         facets = self._outward(facets, X0, cells)
-        self.surface = oriented_surface(X0, facets)
-        self.increment = np.zeros_like(X0)          # displacement of each vertex over the last step [mm]
-        self._moved = np.zeros((len(X0), 2 * bs))
+        nv = len(X0)
+        # 3-D: the quadrilaterals' centres (vertices nv, nv + 1, ...), four triangles (corner, next corner, centre)
+        self.quads = facets if bs == 3 else np.zeros((0, 4), dtype=np.int64)
+        if bs == 3:
+            centre = nv + np.arange(len(facets))
+            facets = np.concatenate([np.stack([facets[:, k], facets[:, (k + 1) % 4], centre], axis=1)
+                                     for k in range(4)])
+        mirrored = np.concatenate([np.isin(self.vertex_nodes, _nodes_on(V, facet_tags, mirror_tags)),
+                                   np.zeros(len(self.quads), dtype=bool)])
+        self.surface = oriented_surface(self._with_centres(X0), facets, mirrored=mirrored)
+        self.increment = np.zeros((nv + len(self.quads), bs))  # displacement of each vertex over the last step [mm]
+        self._moved = np.zeros((nv, 2 * bs))
 
     def _sum(self, a):
         if self.comm.size > 1:
             self.comm.Allreduce(MPI.IN_PLACE, a, op=MPI.SUM)
         return a
 
+    def _with_centres(self, a):
+        """(nv + nq, k): the rows a (nv, k) of the real vertices, then the mean of each quadrilateral's four."""
+        return np.concatenate([a, a[self.quads].mean(axis=1)]) if len(self.quads) else a
+
+    def element_nodes(self, facet):
+        """(m, k) the real vertices whose dofs the facets (m,) act on, and the constant (dim nfv, dim k) matrix
+        C taking their dofs' values to the facet vertices' (a facet vertex's displacement = C applied to
+        theirs): 2-D: the segment's two, C = I; 3-D: the triangle's two corners and the quadrilateral's
+        four (its centre is their mean), C maps those four to the centre with a quarter each."""
+        F = self.surface.facets[facet]
+        d = self.dim
+        if not len(self.quads):
+            return F, np.eye(d * F.shape[1])
+        nodes = np.concatenate([F[:, :2], self.quads[F[:, 2] - len(self.vertex_nodes)]], axis=1)
+        C = np.zeros((3 * d, 6 * d))
+        C[:2 * d, :2 * d] = np.eye(2 * d)
+        C[2 * d:, 2 * d:] = np.tile(0.25 * np.eye(d), 4)
+        return nodes, C
+
     @staticmethod
     def _outward(facets, X, centroids):
         """Segments (2-D) turned so that their left normal points out of their cell; quadrilaterals (3-D)
-        turned so that their right-handed normal does, then split in two triangles."""
+        turned so that their right-handed normal does (corners in cyclic order)."""
         P = X[facets]
         if facets.shape[1] == 2:
             t = P[:, 1] - P[:, 0]
@@ -129,8 +173,6 @@ class BodySurface:
         inward = np.einsum("ij,ij->i", n, P.mean(axis=1) - centroids) < 0.0
         facets = facets.copy()
         facets[inward] = facets[inward, ::-1]
-        if facets.shape[1] == 4:
-            facets = np.concatenate([facets[:, [0, 1, 2]], facets[:, [0, 2, 3]]])
         return np.ascontiguousarray(facets)
 
     def global_rows(self, values):
@@ -155,6 +197,7 @@ class BodySurface:
         m, bs = self._moved, self.dim
         _owned_rows(self.X, self.rows, self.dofs, u, du if du is not None else u, m)
         self._sum(m)
+        m = self._with_centres(m)
         refresh(self.surface, m[:, :bs])
         self.increment[:] = m[:, bs:]
 
@@ -178,10 +221,22 @@ class BodySurface:
     def add_reactions(self, facet, weights, fc, fcon):
         """fcon (owned dofs) += the reactions -w_a f_c of the slave forces fc (n, dim) [N] at the vertices of
         their facets (n,) with weights (n, dim); collective."""
-        R = np.zeros_like(self.X)
+        R = np.zeros_like(self.increment)
         _spread(self.surface.facets, facet, weights, fc, R)
+        R = self._to_corners(R)
         self._sum(R)
         _add_rows(R, self.rows, self.dofs, fcon)
+
+
+    def _to_corners(self, R):
+        """(nv, dim): the rows R (nv + nq, dim) of the real vertices, each centre's passed to its
+        quadrilateral's four corners, a quarter each."""
+        if not len(self.quads):
+            return R
+        out = R[: len(self.vertex_nodes)].copy()
+        for k in range(4):
+            np.add.at(out, self.quads[:, k], 0.25 * R[len(self.vertex_nodes):])
+        return out
 
 
 class TwoPassPair:

@@ -411,21 +411,22 @@ class ExplicitDynamics:
 
     def add_surface_contact(self, facet_tags, tag, master_tag, penalty, two_pass=True,
                             friction=default("contact.*.friction"), law=default("contact.*.law"),
-                            tangential_penalty=None, name=None):
+                            tangential_penalty=None, mirror_tags=(), name=None):
         """Penalty contact (+ Coulomb friction) of the nodes of the facets tagged ``tag`` against the body's
         own facets tagged ``master_tag`` at their current positions, the reactions on the master facets'
         nodes (:mod:`~fenics_plast.solvers.body_surface`); ``two_pass``: also the master group's nodes
-        against the facets tagged ``tag``. Other arguments as :meth:`add_contact`. Returns the
+        against the facets tagged ``tag``; the surfaces continue across the facets tagged ``mirror_tags``
+        (the model's symmetry planes and axis). Other arguments as :meth:`add_contact`. Returns the
         :class:`~fenics_plast.solvers.explicit_contact.ExplicitContactPair` (one pass) or
         :class:`~fenics_plast.solvers.body_surface.TwoPassPair`. Lowers :meth:`stable_dt`. Collective."""
         self._before_start("contact pairs")
         options = dict(penalty=penalty, friction=friction, law=law, tangential_penalty=tangential_penalty)
-        forward = self.contact.add(self.contact.surface(facet_tags, master_tag), facet_tags, tag, **options,
-                                   name=name)
+        forward = self.contact.add(self.contact.surface(facet_tags, master_tag, mirror_tags), facet_tags, tag,
+                                   **options, name=name)
         if not two_pass:
             return forward
-        backward = self.contact.add(self.contact.surface(facet_tags, tag), facet_tags, master_tag, **options,
-                                    name=name)
+        backward = self.contact.add(self.contact.surface(facet_tags, tag, mirror_tags), facet_tags, master_tag,
+                                    **options, name=name)
         return TwoPassPair(forward, backward)
 
     # ------------------------------------------------------------------------------------------

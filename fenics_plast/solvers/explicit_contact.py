@@ -240,11 +240,13 @@ class ContactSet:
         self._surfaces: dict[int, BodySurface] = {}
         self._build()
 
-    def surface(self, facet_tags, tag):
-        """The :class:`~fenics_plast.solvers.body_surface.BodySurface` of the facets tagged ``tag`` (one per
-        group, shared by the pairs that press on it; collective on first use)."""
+    def surface(self, facet_tags, tag, mirror_tags=()):
+        """The :class:`~fenics_plast.solvers.body_surface.BodySurface` of the facets tagged ``tag``, continued
+        across the facets tagged ``mirror_tags`` (one per group, shared by the pairs that press on it;
+        collective on first use)."""
         if tag not in self._surfaces:
-            self._surfaces[tag] = BodySurface(self.solver.V, self.solver.reference_positions, facet_tags, tag)
+            self._surfaces[tag] = BodySurface(self.solver.V, self.solver.reference_positions, facet_tags, tag,
+                                              mirror_tags=mirror_tags)
         return self._surfaces[tag]
 
     def add(self, tool, facet_tags, tag, **kw):

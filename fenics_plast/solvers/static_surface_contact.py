@@ -153,8 +153,9 @@ class SurfaceContactTerm:
         on = np.flatnonzero(self.pressed)        # pressed or touching: a tangent (a body held by contact alone)
         self._active = on
         if len(on):
-            eq = self._equations_of(on)
-            eq, r = eq.ravel(), self.r[on].ravel()
+            eq, C = self._equations_of(on)
+            r = self.r[on] if C is None else np.concatenate([self.r[on, :self.dim], self.r[on, self.dim:] @ C], axis=1)
+            eq, r = eq.ravel(), r.ravel()
             free = eq >= 0
             b.setValues(eq[free].astype(PETSc.IntType), r[free], addv=PETSc.InsertMode.ADD)
 
@@ -197,8 +198,12 @@ class SurfaceContactTerm:
         self.u_c[:] = self.contact.w_c.x.array[self.vmap]
 
     def _equations_of(self, rows):
-        verts = self.surface.surface.facets[self.facet[rows]]                         # (m, nfv)
-        return np.concatenate([self._slave_eq[rows], self._master_eq[verts].reshape(len(rows), -1)], axis=1)
+        """(the global equations (m, dim (1 + k)) of the slave nodes ``rows`` and of the k master nodes their
+        facets act on, the matrix C from those master nodes' dofs to the facet vertices' or None where it is
+        the identity: :meth:`~fenics_plast.solvers.body_surface.BodySurface.element_nodes`)."""
+        nodes, C = self.surface.element_nodes(self.facet[rows])
+        eq = np.concatenate([self._slave_eq[rows], self._master_eq[nodes].reshape(len(rows), -1)], axis=1)
+        return eq, (None if C.shape[0] == C.shape[1] else C)
 
     def jacobian(self, A):
         """A += the contact tangent at the state of the last :meth:`residual` (SNES evaluates the residual,
@@ -206,8 +211,15 @@ class SurfaceContactTerm:
         on = self._active
         if not len(on):
             return
-        eq = np.ascontiguousarray(self._equations_of(on), dtype=PETSc.IntType)
-        A.setValuesRCV(eq, eq, np.ascontiguousarray(self.K[on]), addv=PETSc.InsertMode.ADD)    # one block a node
+        eq, C = self._equations_of(on)
+        K = self.K[on]
+        if C is not None:                   # the element's tangent on the master nodes' dofs: Ce^T K Ce
+            d = self.dim
+            Ce = np.zeros((d + C.shape[0], d + C.shape[1]))
+            Ce[:d, :d], Ce[d:, d:] = np.eye(d), C
+            K = Ce.T @ K @ Ce
+        eq = np.ascontiguousarray(eq, dtype=PETSc.IntType)
+        A.setValuesRCV(eq, eq, np.ascontiguousarray(K), addv=PETSc.InsertMode.ADD)    # one block a node
 
     # -- reports (collective) --------------------------------------------------------------------
     def contact_nodes(self):
@@ -253,15 +265,16 @@ class SurfaceContactTerm:
 
 
 def surface_terms(contact, facet_tags, tag, master_tag, *, penalty, friction, law, tangential_penalty=None,
-                  two_pass=True, name=None):
+                  two_pass=True, mirror_tags=(), name=None):
     """The terms of the pair of the nodes tagged ``tag`` against the body's facets tagged ``master_tag`` (and,
-    with ``two_pass``, back), for the static contact set ``contact``
+    with ``two_pass``, back; the surfaces continue across the facets tagged ``mirror_tags``, see
+    :class:`~fenics_plast.solvers.body_surface.BodySurface`), for the static contact set ``contact``
     (:meth:`fenics_plast.contact.PenaltyContact.add_surface_pair`): (the terms, the pair that reports:
     the :class:`SurfaceContactTerm` or a :class:`~fenics_plast.solvers.body_surface.TwoPassPair`). Collective."""
     solver = contact.solver
     Vc, _ = solver.displacement_space()
     X = Vc.tabulate_dof_coordinates()[:, :Vc.dofmap.index_map_bs]
-    surfaces = {t: BodySurface(Vc, X, facet_tags, t) for t in ({master_tag, tag} if two_pass else {master_tag})}
+    surfaces = {t: BodySurface(Vc, X, facet_tags, t, mirror_tags=mirror_tags) for t in ({master_tag, tag} if two_pass else {master_tag})}
     law_args = dict(penalty=penalty, friction=friction, law=law, tangential_penalty=tangential_penalty, name=name)
     forward = SurfaceContactTerm(contact, facet_tags, tag, surfaces[master_tag], **law_args)
     if not two_pass:

@@ -125,11 +125,13 @@ def build_surface(vertices, facets, flip: bool) -> FacetSurface:
     return oriented_surface(V, F)
 
 
-def oriented_surface(vertices, facets) -> FacetSurface:
+def oriented_surface(vertices, facets, mirrored=None) -> FacetSurface:
     """The :class:`FacetSurface` of facets (nf, dim) already oriented as wanted (their normals point to the
     side a point's gap is positive on: left of a segment's direction, right-handed about a triangle's
-    vertex order), e.g. a body's boundary facets turned to point out of its cells. ValueError for a
-    degenerate facet."""
+    vertex order), e.g. a body's boundary facets turned to point out of its cells. ``mirrored`` (nv,) bool:
+    the vertices on a plane (or axis) of symmetry of the model, across which the surface continues as its
+    mirror image: a boundary vertex (2-D) or an edge of two such vertices (3-D) there is not open (see
+    :func:`nearest_points`). ValueError for a degenerate facet."""
     V = np.array(vertices, dtype=float)
     F = np.ascontiguousarray(facets, dtype=np.int64)
     dim = V.shape[1]
@@ -138,16 +140,17 @@ def oriented_surface(vertices, facets) -> FacetSurface:
         np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
     if not np.all(size > 0):
         raise ValueError(f"facet {int(np.argmin(size))} of the surface is degenerate (zero length or area)")
+    mirrored = np.zeros(len(V), dtype=bool) if mirrored is None else np.asarray(mirrored, dtype=bool)
     open_vertices = np.zeros(len(V), dtype=np.int8)
     if dim == 2:
         facet_edges, n_edges = np.zeros((len(F), 0), dtype=np.int64), 0
         open_edges = np.zeros((len(F), 0), dtype=np.int8)
-        open_vertices[np.bincount(F.ravel(), minlength=len(V)) == 1] = 1
+        open_vertices[(np.bincount(F.ravel(), minlength=len(V)) == 1) & ~mirrored] = 1
     else:
         keys = np.sort(np.stack([F, np.roll(F, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
         unique, facet_edges = np.unique(keys, axis=0, return_inverse=True)
         facet_edges, n_edges = facet_edges.reshape(-1, 3).astype(np.int64), len(unique)
-        once = np.bincount(facet_edges.ravel(), minlength=n_edges) == 1
+        once = (np.bincount(facet_edges.ravel(), minlength=n_edges) == 1) & ~mirrored[unique].all(axis=1)
         open_edges = once[facet_edges].astype(np.int8)
         open_vertices[unique[once].ravel()] = 1
     _, _, children, leaf, order = _hierarchy(P.min(axis=1), P.max(axis=1))
@@ -236,7 +239,9 @@ def nearest_points(surface: FacetSurface, x, skip, g, N, facet, weights, reach: 
     a point whose nearest point lies on the open boundary and that is more than
     :data:`OPEN_BOUNDARY_TOLERANCE` of the facet's size beyond it (measured in the facet's plane) is apart
     (g = reach, N = 0, facet -1); within it, it has the facet's own gap and normal (a node at the corner
-    of the other body's face).
+    of the other body's face). Where the surface ends on a plane of symmetry it is not open
+    (:func:`oriented_surface`'s ``mirrored``): a point there pressed into a facet tilted across the plane
+    lies beyond the facet's edge by the depth times the tilt, and is in contact with the edge.
 
     facing (n, dim): the points' own outward normals (self-contact, points of the surface itself): only
     facets whose normal faces the point's (n_f . n_s < :data:`SELF_CONTACT_FACING`) are searched."""
