@@ -1,8 +1,8 @@
 """Cost of a master surface of the body as it grows: per explicit step, moving and refitting the surface
 (with its reduction over the ranks), the search of the slave nodes and the reactions, for two stacked blocks
-whose facing faces have n x n and (n + 1) x (n + 1) non-matching hexahedral faces (2 n^2 triangles on the
-master side), serially or under mpirun (rank 0 prints; each rank searches its own slave nodes against the
-whole master surface, gathered on every rank).
+whose facing faces have n x n and (n + 1) x (n + 1) non-matching hexahedral faces (4 n^2 triangles on the
+master side: each quadrilateral four triangles about its centre), serially or under mpirun (rank 0 prints;
+each rank searches its own slave nodes against the whole master surface, gathered on every rank).
 
     python benchmarks/bench_body_contact.py                    # n = 16, 32, 64, 128
     mpirun -n 2 python benchmarks/bench_body_contact.py 32 64 128
@@ -17,19 +17,19 @@ Measured (2-core machine, one invocation each; per call [ms]):
 
       n  triangles  slaves (one rank)   move    nearest  reactions      move   nearest  reactions
                                         ---- 1 rank ----------------    ---- 2 ranks -------------
-     16        512      324   (312)     0.14     0.25     0.03          0.16     0.24     0.05
-     32      2,048    1,156 (1,147)     0.57     0.99     0.09          0.55     0.97     0.12
-     64      8,192    4,356 (4,356)     2.02     4.08     0.28          2.16     4.17     0.42
-    128     32,768   16,900 (16,900)    7.38    16.17     0.89          8.90    18.36     1.25
+     16      1,024      324   (324)     0.16     0.15     0.02
+     32      4,096    1,156 (1,146)     0.58     0.61     0.07          0.60     0.61     0.08
+     64     16,384    4,356 (4,356)     2.42     2.79     0.27          2.34     2.69     0.27
+    128     65,536   16,900 (16,900)    9.94    12.72     1.07         10.59    12.59     1.22
 
-Moving and refitting the gathered surface costs about 0.25 us per triangle on every rank whatever the
-ranks (it is not divided among them), the search about 1 us per slave node of the busiest rank (here the
-partition put the upper block, all slave nodes, on one rank: no gain from the second), the reactions'
-reduction 0.04 us per vertex. At 32,768 master triangles and 16,900 slave nodes a step's contact costs
-~25 ms, against some 130 ms for the force pass of the two blocks' 66,000 hexahedra (estimated at 2 us
-each, not measured here): gathering the master whole
-suits interfaces up to some 10^5 triangles; beyond, or with many ranks, the surface would have to be
-split by rank (not built).
+Moving and refitting the gathered surface costs about 0.15 us per triangle on every rank whatever the
+ranks (it is not divided among them), the search about 0.75 us per slave node of the busiest rank (here
+the partition put the upper block, all slave nodes, on one rank: no gain from the second), the reactions'
+reduction 0.06 us per vertex. At 65,536 master triangles (16,384 quadrilaterals) and 16,900 slave nodes a
+step's contact costs ~24 ms, against some 130 ms for the force pass of the two blocks' 66,000 hexahedra
+(estimated at 2 us each, not measured here): gathering the master whole suits interfaces up to some 10^5
+quadrilaterals; beyond, or with many ranks, the surface would have to be split by rank (not built). With two
+triangles a quadrilateral (before the faces were split about their centres) the same case cost ~25 ms.
 """
 from __future__ import annotations
 

@@ -145,7 +145,7 @@ def test_both_solvers_continue_master_surfaces_across_the_scenes_symmetry_planes
 
 #: coarse quarters: 3 x 18 cells a bar (h = 1.8 mm at the face), the penalties of the demos per h
 COARSE = ["mesh.parameters.cells_radial=3", "mesh.parameters.cells_axial=18"]
-ROD_PENALTY, WALL_PENALTY = 4.875e4, 1.95e5      # the scenes' 9.75e4 and 3.9e5 N/mm^3 at half the cells
+ROD_PENALTY, WALL_PENALTY = 1.95e5, 7.8e5       # the scenes' 3.9e5 and 1.56e6 N/mm^3 at half the cells
 
 
 def run(scene, out, *sets, launch=()):
@@ -169,12 +169,16 @@ def quarter_wall(tmp_path_factory):
 @pytest.mark.parametrize("friction", [0.0, 0.3])
 def test_quarter_rod_on_rod_3d_is_the_quarter_bar_on_a_rigid_plane(tmp_path, quarter_wall, friction):
     """Two quarter bars at -227 and +227 m/s, face to face, to 80 us: each is the quarter bar on a
-    frictionless rigid plane (radius and length within 0.5 %, the issue's bound) with or without friction;
+    frictionless rigid plane (radius and length within 0.5 %, the issue's bound; measured -0.11 % and -0.01 %
+    frictionless, -0.06 % and +0.002 % with friction) with or without friction;
     the two bars mirror each other (their faces are split alike) and the interface stays on the mid-plane;
     the energy balances to 1e-3."""
     s = run(REPO / "demos" / "taylor_rod_on_rod_3d.toml", tmp_path / "out",
             f"contact.interface.penalty={ROD_PENALTY}", f"contact.interface.friction={friction}")
     w = quarter_wall
+    print(f"\nquarter rod on rod, friction {friction}: radius {s['radius_mm'] / w['radius_mm'] - 1:+.2e}, length "
+          f"{s['length_mm'] / w['length_mm'] - 1:+.2e} from the plane's; upper - lower radius "
+          f"{s['radius_mm'] - s['radius_lower_mm']:.1e} mm")
     assert abs(s["radius_mm"] / w["radius_mm"] - 1.0) < 5e-3, (s["radius_mm"], w["radius_mm"])
     assert abs(s["length_mm"] / w["length_mm"] - 1.0) < 5e-3, (s["length_mm"], w["length_mm"])
     assert s["radius_lower_mm"] == pytest.approx(s["radius_mm"], rel=1e-4)          # two triangles: 3e-3

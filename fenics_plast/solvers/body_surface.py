@@ -143,7 +143,11 @@ class BodySurface:
 
     def _with_centres(self, a):
         """(nv + nq, k): the rows a (nv, k) of the real vertices, then the mean of each quadrilateral's four."""
-        return np.concatenate([a, a[self.quads].mean(axis=1)]) if len(self.quads) else a
+        if not len(self.quads):
+            return a
+        out = np.empty((len(a) + len(self.quads), a.shape[1]))
+        _centres(self.quads, np.ascontiguousarray(a, dtype=float), out)
+        return out
 
     def element_nodes(self, facet):
         """(m, k) the real vertices whose dofs the facets (m,) act on, and the constant (dim nfv, dim k) matrix
@@ -234,8 +238,7 @@ class BodySurface:
         if not len(self.quads):
             return R
         out = R[: len(self.vertex_nodes)].copy()
-        for k in range(4):
-            np.add.at(out, self.quads[:, k], 0.25 * R[len(self.vertex_nodes):])
+        _to_corners(self.quads, R[len(self.vertex_nodes):], out)
         return out
 
 
@@ -318,6 +321,25 @@ def _owned_rows(X, rows, dofs, u, du, out):
         for j in range(dim):
             out[r, j] = X[r, j] + u[dofs[i, j]]
             out[r, dim + j] = du[dofs[i, j]]
+
+
+@_njit
+def _centres(quads, a, out):
+    """out[:nv] = a (nv, k); out[nv + q] = the mean of a over the four corners quads[q]."""
+    nv = a.shape[0]
+    out[:nv] = a
+    for q in range(quads.shape[0]):
+        for j in range(a.shape[1]):
+            out[nv + q, j] = 0.25 * (a[quads[q, 0], j] + a[quads[q, 1], j] + a[quads[q, 2], j] + a[quads[q, 3], j])
+
+
+@_njit
+def _to_corners(quads, Rc, out):
+    """out[quads[q, k]] += Rc[q] / 4 for each corner k of each quadrilateral q."""
+    for q in range(quads.shape[0]):
+        for k in range(4):
+            for j in range(Rc.shape[1]):
+                out[quads[q, k], j] += 0.25 * Rc[q, j]
 
 
 @_njit
