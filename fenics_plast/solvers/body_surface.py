@@ -227,12 +227,11 @@ class BodySurface:
         their facets (n,) with weights (n, dim); collective."""
         R = np.zeros_like(self.increment)
         _spread(self.surface.facets, facet, weights, fc, R)
-        R = self._to_corners(R)
+        R = self._centres_to_corners(R)
         self._sum(R)
         _add_rows(R, self.rows, self.dofs, fcon)
 
-
-    def _to_corners(self, R):
+    def _centres_to_corners(self, R):
         """(nv, dim): the rows R (nv + nq, dim) of the real vertices, each centre's passed to its
         quadrilateral's four corners, a quarter each."""
         if not len(self.quads):

@@ -154,7 +154,9 @@ class SurfaceContactTerm:
         self._active = on
         if len(on):
             eq, C = self._equations_of(on)
-            r = self.r[on] if C is None else np.concatenate([self.r[on, :self.dim], self.r[on, self.dim:] @ C], axis=1)
+            r = self.r[on]
+            if C is not None:               # the element's forces on the master nodes' dofs: C^T f
+                r = np.concatenate([r[:, :self.dim], r[:, self.dim:] @ C], axis=1)
             eq, r = eq.ravel(), r.ravel()
             free = eq >= 0
             b.setValues(eq[free].astype(PETSc.IntType), r[free], addv=PETSc.InsertMode.ADD)
@@ -274,7 +276,8 @@ def surface_terms(contact, facet_tags, tag, master_tag, *, penalty, friction, la
     solver = contact.solver
     Vc, _ = solver.displacement_space()
     X = Vc.tabulate_dof_coordinates()[:, :Vc.dofmap.index_map_bs]
-    surfaces = {t: BodySurface(Vc, X, facet_tags, t, mirror_tags=mirror_tags) for t in ({master_tag, tag} if two_pass else {master_tag})}
+    surfaces = {t: BodySurface(Vc, X, facet_tags, t, mirror_tags=mirror_tags)
+                for t in ({master_tag, tag} if two_pass else {master_tag})}
     law_args = dict(penalty=penalty, friction=friction, law=law, tangential_penalty=tangential_penalty, name=name)
     forward = SurfaceContactTerm(contact, facet_tags, tag, surfaces[master_tag], **law_args)
     if not two_pass:
