@@ -551,7 +551,7 @@ class PenaltyContact:
         entries of the state w_c and of each pair's nodal history (t_n, N_n, p_n) as ``hist<i>``,
         keyed by node/cell, and the load factor lam_c."""
         from fenics_plast.checkpoint import Keyed, owned_keyed
-        d = dict(w_c=owned_keyed(self.w_c, self.solver.checkpoint_keys()[0]), lam_c=float(self.lam_c.value))
+        d = dict(w_c=owned_keyed(self.w_c, self.solver.restart.keys()[0]), lam_c=float(self.lam_c.value))
         for i, p in enumerate(self.pairs):
             d[f"hist{i}"] = Keyed(*p.history())
         return d
@@ -563,7 +563,7 @@ class PenaltyContact:
         dm = self.w_c.function_space.dofmap
         why, w_c, hists = None, None, []
         try:
-            w_c = d["w_c"].take(self.solver.checkpoint_keys()[0][: dm.index_map.size_local * dm.index_map_bs])
+            w_c = d["w_c"].take(self.solver.restart.keys()[0][: dm.index_map.size_local * dm.index_map_bs])
             hists = [d[f"hist{i}"].take(p.history()[1]) for i, p in enumerate(self.pairs)]
         except ck.CheckpointError as e:
             why = str(e)

@@ -235,7 +235,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
                 run.xf = open_fields(problem, output, comm, nb.mesh)
             b = run.b = nb
             run.quantities = Quantities(problem.outputs, nb.body, nb.facet_tags, nb.groups)
-        b.solver.load_state(saved["solver"])
+        b.solver.restart.load_state(saved["solver"])
         r = saved["runner"]
         quantities = run.quantities
         quantities.history, quantities.times, state["row"] = r["history"], r["times"], r["row"]
@@ -248,7 +248,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
             from fenics_plast.remeshing.resume import checkpoint_groups
             entry, keyed = checkpoint_groups(run.b, remesher, s.V)
             keyed = {"remesh_state": keyed}
-        ck.save(s.step_count, solver=s.state_dict(), loop=loop_state,
+        ck.save(s.step_count, solver=s.restart.state_dict(), loop=loop_state,
                 runner=dict(history=run.quantities.history, times=run.quantities.times, row=state["row"],
                             remesh=entry), **keyed)
 

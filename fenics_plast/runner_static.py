@@ -276,7 +276,7 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
 
     loop = None
     if saved is not None:
-        b.solver.load_state(saved["solver"])
+        b.solver.restart.load_state(saved["solver"])
         if b.contact is not None:
             b.contact.load_state(saved["contact"])
         r = saved["runner"]
@@ -300,7 +300,7 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
             from fenics_plast.remeshing.resume import checkpoint_groups
             remesh_entry, remesh_state = checkpoint_groups(run.b, remesher, run.b.Vc, since=run.b.since,
                                                            penalties={n: p.penalty for n, p in run.b.pairs.items()})
-        ck.save(len(solver.increments), solver=solver.state_dict(),
+        ck.save(len(solver.increments), solver=solver.restart.state_dict(),
                 contact=run.b.contact.state_dict() if run.b.contact is not None else {}, loop=loop_state,
                 runner=dict(history=quantities.history, times=quantities.times, count=state["count"],
                             energy=[] if energy is None else [energy.W_int, energy.W_tool, energy.W_bc, energy.W_c],

@@ -137,9 +137,9 @@ def test_taylor_3d_checkpoint_round_trip():
     for _ in range(20):
         b.step(dt)
     state = {key: KeyedTable(key, v.values, v.keys) if isinstance(v, Keyed) else v
-             for key, v in b.state_dict().items()}
+             for key, v in b.restart.state_dict().items()}
     c = taylor_3d(MPI.COMM_WORLD)
-    c.load_state(state)
+    c.restart.load_state(state)
     for _ in range(20):
         c.step(dt)
     assert a.max_eqps() > 0.1

@@ -267,9 +267,9 @@ def test_checkpoint_resume_with_contact_and_drivers():
     for _ in range(30):
         b.step(dt)
     state = {key: KeyedTable(key, v.values, v.keys) if isinstance(v, Keyed) else v
-             for key, v in b.state_dict().items()}
+             for key, v in b.restart.state_dict().items()}
     c, _ = make()
-    c.load_state(state)
+    c.restart.load_state(state)
     for _ in range(30):
         c.step(dt)
     assert np.array_equal(a.u.x.array, c.u.x.array) and np.array_equal(a.v.x.array, c.v.x.array)

@@ -316,14 +316,14 @@ def test_taylor_scene_same_with_either_route_and_checkpoint_round_trip():
     assert heat / f.energies()["plastic"] == pytest.approx(0.9, rel=0.03)
     # checkpoint state: the temperature is keyed per point and restored (trial state too)
     from fenics_plast.checkpoint import KeyedTable
-    d = f.state_dict()
+    d = f.restart.state_dict()
     assert "temperature" in d
     tables = {k: (KeyedTable(k, v.values, v.keys) if hasattr(v, "keys") and hasattr(v, "values") else v)
               for k, v in d.items()}
     T = f.qmap.temperature.copy()
     f.qmap.temperature[:] = 0.0
     f.qmap.temperature_trial[:] = 0.0
-    f.load_state(tables)
+    f.restart.load_state(tables)
     assert np.array_equal(f.qmap.temperature, T) and np.array_equal(f.qmap.temperature_trial, T)
 
 

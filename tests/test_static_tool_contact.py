@@ -127,7 +127,7 @@ def test_compiled_contact_equals_the_forms(case, law):
     fast, cc, pc = _setup(case, law, compiled=True)
     # the same state, committed state and history, through the checkpoints' state (either route reads the
     # other's)
-    fast.load_state(_tables(forms.state_dict()))
+    fast.restart.load_state(_tables(forms.restart.state_dict()))
     cc.load_state(_tables(cf.state_dict()))
     lam = 0.81
     forms.set_load(lam)

@@ -190,7 +190,7 @@ def _run_taylor_400(end_us, resume_from=None):
     s = b.solver
     if resume_from is not None:
         s.initialize()
-        s.load_state(resume_from)
+        s.restart.load_state(resume_from)
     s.run(end_us * US, dt_safety=0.8, rows=9, progress=0, mass_scaling_dt=0.005 * US)
     return s
 
@@ -218,7 +218,8 @@ def test_taylor_400_restored_state_goes_on_as_uninterrupted():
     """State at 50 us (after the first erosions) into a new solver, on to 60 us: the same run."""
     from fenics_plast.checkpoint import Keyed, KeyedTable
     a = _run_taylor_400(50.0)
-    saved = {k: KeyedTable(k, v.values, v.keys) if isinstance(v, Keyed) else v for k, v in a.state_dict().items()}
+    saved = {k: KeyedTable(k, v.values, v.keys) if isinstance(v, Keyed) else v
+             for k, v in a.restart.state_dict().items()}
     assert a.cell_steps.erosion_stats()["cells"] >= 1 and saved["E_wall"] > 0.0
     a.run(60 * US, dt_safety=0.8, rows=9, progress=0, mass_scaling_dt=0.005 * US)
     b = _run_taylor_400(60.0, resume_from=saved)

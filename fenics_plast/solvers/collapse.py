@@ -9,7 +9,8 @@ the driver words them as the scene's keys). It calls :func:`fold_error` when a s
 fold a cell (a quadrature point's Jacobian <= 0, found by the force pass before it writes anything):
 the run stops at the last finite state, and the message names the cell, its shape there, the point
 Jacobian the step would have reached, and the remedies (a fold is no collapse of the step: the floor
-does not see it). Lengths in mm, times in s (the times of the run in µs, where users write them; the
+does not see it). :func:`unstable_message` words a run gone unstable otherwise (a non-finite stress, a
+kinetic energy out of bounds). Lengths in mm, times in s (the times of the run in µs, where users write them; the
 arguments' values in the solver's units, which the driver's wording may show in others).
 """
 from __future__ import annotations
@@ -252,3 +253,39 @@ def fold_error(solver, fold, dt_stable0, dt_floor, mass_scaling_dt,
     e = CellFold(msg, results=results)
     e.dt_stable = dt_stable
     return e
+
+
+def _nonfinite_cell(solver, local=False):
+    """(original index, reference vertex mean [mm]) of the first owned cell, on the lowest rank
+    that has one, whose stress is not finite; None when every stress is finite (collective unless
+    ``local``: this rank's cells only)."""
+    tau = np.asarray(solver.qmap.tau_values).reshape(solver.n_cells_own, -1)
+    bad = np.flatnonzero(~np.isfinite(tau).all(axis=1))
+    loc = None
+    if bad.size:
+        i = int(bad[0])
+        loc = solver.cell_steps.centre(i)
+    gathered = solver.comm.allgather(loc) if solver.comm.size > 1 and not local else [loc]
+    found = [x for x in gathered if x is not None]
+    return found[0] if found else None
+
+
+def unstable_message(solver, dt, why, dts=None, local=False) -> Message:
+    """The message of an explicit run (``solver``) gone unstable at the step dt [s] for the reason ``why``
+    (collective unless ``local``), the remedies naming the solver's arguments
+    (:class:`~fenics_plast.errors.Message`)."""
+    dts = solver.stable_dt() if dts is None else dts
+    head = (f"explicit run went unstable at t = {solver.t * 1e6:.4g} us (step {solver.step_count}): {why}; "
+            f"time step {dt:.4g} s, current stable limit {dts:.4g} s.")
+    bad = _nonfinite_cell(solver, local)
+    if bad is None:
+        return Message(head, " Lower ", Arg("dt_safety"), " or raise ", Arg("steps"))
+    ax = ("r", "z") if solver.kin.axisymmetric else ("x", "y", "z")[: solver.bs]
+    where = f"({', '.join(ax)}) = ({', '.join(f'{x:.4g}' for x in bad[1])}) mm"
+    return Message(head, f" The stress became non-finite in cell {bad[0]} (the mesh file's cell order; "
+                   f"reference {where}): most likely the cell folded (inverted), which a smaller time step does "
+                   "not prevent, nor mass scaling. Remedies: a finer mesh (", Arg("mesh"), ") or one graded "
+                   "toward that cell; another element or material model (", Arg("element"), ", ",
+                   Arg("material.model"), ") may follow the deformation further; element erosion (",
+                   Arg("erosion_ratio"), ") removes such cells and goes on; a node passing a rigid support's "
+                   "plane is stopped by a wall on every node (", Arg("add_wall"), ")")

@@ -80,7 +80,6 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from fenics_plast import dolfinx_compat as dc
-from fenics_plast.errors import Arg, Message, RunError
 from fenics_plast.material import MaterialRegions
 from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 from fenics_plast.schema import choices, default, key
@@ -91,6 +90,7 @@ from fenics_plast.solvers import time_stepping
 from fenics_plast.solvers.cell_steps import CellSteps, cell_masses
 from fenics_plast.solvers.body_surface import TwoPassPair
 from fenics_plast.solvers.explicit_contact import ContactSet
+from fenics_plast.solvers.explicit_restart import ExplicitRestart
 from fenics_plast.solvers.walls import RigidWalls
 
 
@@ -198,7 +198,7 @@ class ExplicitDynamics:
                                                      kin.axisymmetric)
 
         self.alive = np.ones(self.n_cells_own, dtype=np.uint8)      # 0: eroded cell (erosion_ratio)
-        self._eroded_seen = 0                                       # eroded cells already reported
+        self.eroded_reported = 0                                    # eroded cells already reported
         vt = ufl.TestFunction(V)
         if self.fused:
             self._setup_fused(kin)
@@ -250,6 +250,7 @@ class ExplicitDynamics:
         # drivers: contact pairs, prescribed motion and loads (and the steps that integrate them)
         self.contact = ContactSet(self)
         self.walls = RigidWalls(self)
+        self.restart = ExplicitRestart(self)        # the state a resumed run needs (checkpoints)
         self.drivers = ti.Drivers(self)
         self.timings["setup_s"] = time.perf_counter() - t0
 
@@ -613,118 +614,6 @@ class ExplicitDynamics:
                 self.step_failure = f"non-finite stress or internal force at step {self.step_count + 1}"
             self._step_failed(ti.STEP_FOLDS if status >= 0 else status, dt)
 
-    # ------------------------------------------------------------------------------------------
-    def state_dict(self):
-        """The state a resumed run needs (see fenics_plast.checkpoint; collective): the owned entries
-        of u, u_n, v, a, du, f [mm, mm/s, mm/s^2, N] and of theta/theta_n (ufl route, q1p0), the
-        committed quadrature-point state binv (n,3,3) and eqps (n,) (and the temperature (n,) [K] of
-        Johnson-Cook materials), each keyed by node, cell or point; the time t [s], the step count, KE0 and the (summed) work accumulators W_int, W_ext
-        [N mm]. With drivers also: the load and contact force vectors fload, fcon [N], the
-        prescribed dofs' reactions reac [N], the summed load and reaction work W_load, W_sets
-        [N mm], E0_stored, and per contact pair its nodal history (contact<i>: t_n, N_n, p_n, t,
-        f_c) and accumulators (contact<i>_acc, contact<i>_pen). Once selective mass scaling has added
-        mass: the nodal mass [tonne] (by dof), the cells' density factors cell_scale (by cell) and
-        the summed E_mass [N mm]. With walls: their summed energy E_wall [N mm]; with element erosion:
-        the cells' ``alive`` flags (by cell)."""
-        from fenics_plast.checkpoint import Keyed, owned_keyed
-        kv, kq = self.checkpoint_keys()
-        n = self.n_own
-        d = dict(u=owned_keyed(self.u, kv), u_n=owned_keyed(self.u_n, kv), v=owned_keyed(self.v, kv),
-                 a=Keyed(self.a, kv[:n]), du=Keyed(self.du, kv[:n]), f=Keyed(np.array(self.f), kv[:n]),
-                 **{k: Keyed(v, kq) for k, v in self.qmap.state().items()}, t=self.t,
-                 step_count=self.step_count, KE0=self.KE0, W_int=self.allreduce(self.W_int, MPI.SUM),
-                 W_ext=self.allreduce(self.W_ext, MPI.SUM))
-        if self.theta is not None:
-            d.update(theta=owned_keyed(self.theta), theta_n=owned_keyed(self.theta_n))
-        if self.has_drivers:
-            d.update(self.drivers.state_dict(kv))
-        cs = self.cell_steps
-        if cs.mass_scaled:
-            from fenics_plast.checkpoint import cell_keys
-            d.update(mass=Keyed(self.mass.copy(), kv[:n]),
-                     cell_scale=Keyed(cs.cell_scale.copy(), cell_keys(self.mesh)[: self.n_cells_own]),
-                     E_mass=self.allreduce(cs.E_mass, MPI.SUM))
-        if self.walls.active:
-            d.update(E_wall=self.walls.energy())
-        if self.erosion_ratio > 0.0:
-            from fenics_plast.checkpoint import cell_keys
-            d.update(alive=Keyed(self.alive.astype(float), cell_keys(self.mesh)[: self.n_cells_own]))
-        return d
-
-    def checkpoint_keys(self):
-        """(dof keys of V, quadrature-point keys of the owned points): the checkpoint's keys, which
-        name each value by node coordinates and cell/point rather than by this run's numbering."""
-        if not hasattr(self, "_ck_keys"):
-            from fenics_plast.checkpoint import dof_keys, qp_keys
-            self._ck_keys = (dof_keys(self.V), qp_keys(self.mesh, self.n_cells_own, self.qmap.nq))
-        return self._ck_keys
-
-    def load_state(self, d):
-        """Restore :meth:`state_dict` (collective). Raises CheckpointError (on every rank) when the
-        checkpoint is of another mesh or layout. The summed work accumulators go to rank 0."""
-        from fenics_plast import checkpoint as ck
-        keys = ["u", "u_n", "v", "a", "du", "f", *self.qmap.state(), "t", "step_count", "W_int", "W_ext", "KE0"]
-        keys += ["theta", "theta_n"] if self.theta is not None else []
-        keys += self.drivers.required_keys() if self.has_drivers else []
-        keys += ["E_wall"] if self.walls.active else []
-        keys += ["alive"] if self.erosion_ratio > 0.0 else []
-        ck.require(d, keys, "explicit solver")
-        kv, kq = self.checkpoint_keys()
-        n = self.n_own
-        why = None
-        try:
-            owned = {k: d[k].take(kv[:n]) for k in ("u", "u_n", "v", "a", "du", "f")}
-            qp = {k: d[k].take(kq) for k in self.qmap.state()}
-            if self.theta is not None:
-                kt = ck.dof_keys(self.theta.function_space)
-                nt = self.theta.function_space.dofmap.index_map.size_local
-                owned_t = {k: d[k].take(kt[:nt]) for k in ("theta", "theta_n")}
-            if self.has_drivers:
-                driver_rows = self.drivers.take(d, kv)
-            scaled = "mass" in d
-            if scaled:
-                mass = d["mass"].take(kv[:n])
-                cell_scale = d["cell_scale"].take(ck.cell_keys(self.mesh)[: self.n_cells_own])
-            if self.erosion_ratio > 0.0:
-                alive = d["alive"].take(ck.cell_keys(self.mesh)[: self.n_cells_own])
-        except ck.CheckpointError as e:
-            why = str(e)
-        ck.raise_on_any(self.comm, why)
-        for k in ("u", "u_n", "v"):
-            fun = getattr(self, k)
-            fun.x.array[:n] = owned[k]
-            fun.x.scatter_forward()
-        self.a[:] = owned["a"]
-        self.du[:] = owned["du"]
-        self.f[:] = owned["f"]
-        self.qmap.set_state(qp)
-        if self.theta is not None:
-            for k in ("theta", "theta_n"):
-                fun = getattr(self, k)
-                fun.x.array[:nt] = owned_t[k]
-                fun.x.scatter_forward()
-        self.t = float(d["t"])
-        self.step_count = int(d["step_count"])
-        root = self.comm.rank == 0
-        self.W_int = float(d["W_int"]) if root else 0.0
-        self.W_ext = float(d["W_ext"]) if root else 0.0
-        self.KE0 = None if d["KE0"] is None else float(d["KE0"])
-        if self.has_drivers:
-            self.drivers.restore(d, driver_rows, root)
-        if self.walls.active:
-            self.walls.restore(d["E_wall"], root)
-        if self.erosion_ratio > 0.0:
-            self.alive[:] = np.asarray(alive) > 0.5
-            self._eroded_seen = self.cell_steps.erosion_stats()["cells"]
-        if scaled:                      # selective mass scaling: the mass, the cells' factors, E_mass
-            self.cell_steps.restore_scaling(mass, cell_scale, float(d["E_mass"]) if root else 0.0)
-            np.divide(1.0, self.mass, out=self.minv)
-            self.free_minv[:] = self.minv
-            self.free_minv[self.fixed] = 0.0
-            self.free_minv[self.drivers.pdofs] = 0.0
-            if self.contact.pairs:
-                self.contact.mass_changed()
-
     def allreduce(self, x, op):
         """Global reduction of a float (no MPI call in serial: it is checked every few steps)."""
         return x if self.comm.size == 1 else self.comm.allreduce(x, op=op)
@@ -839,7 +728,7 @@ class ExplicitDynamics:
         over the simulated time in us, updated every ``reestimate_every`` steps.
         ``on_checkpoint(solver, loop)`` is called after the step that completes ``checkpoint_every``
         steps since the last call (at the end of a chunk: no per-step cost), with ``loop`` the run-loop
-        variables (JSON-able); ``resume=loop`` continues such a run after :meth:`load_state` (no row
+        variables (JSON-able); ``resume=loop`` continues such a run after ``restart.load_state`` (no row
         at t = 0 then).
         ``mass_scaling_dt`` [s] > 0: selective mass scaling to that stable step at every step-size
         check (:meth:`scale_mass`; with fixed steps at the checks after each ``reestimate_every``
@@ -864,39 +753,7 @@ class ExplicitDynamics:
     def log_erosion(self):
         """A log line when cells have been eroded since the last call (collective)."""
         e = self.cell_steps.erosion_stats()
-        if e["cells"] > self._eroded_seen:
-            self.log(f"  t = {self.t * 1e6:8.3f} us  {e['cells'] - self._eroded_seen} cell(s) eroded (about to "
+        if e["cells"] > self.eroded_reported:
+            self.log(f"  t = {self.t * 1e6:8.3f} us  {e['cells'] - self.eroded_reported} cell(s) eroded (about to "
                      f"fold); {e['cells']} in all, {100 * e['volume_fraction']:.3g} % of the volume")
-            self._eroded_seen = e["cells"]
-
-    def _nonfinite_cell(self, local=False):
-        """(original index, reference vertex mean [mm]) of the first owned cell, on the lowest rank
-        that has one, whose stress is not finite; None when every stress is finite (collective unless
-        ``local``: this rank's cells only)."""
-        tau = np.asarray(self.qmap.tau_values).reshape(self.n_cells_own, -1)
-        bad = np.flatnonzero(~np.isfinite(tau).all(axis=1))
-        loc = None
-        if bad.size:
-            i = int(bad[0])
-            loc = self.cell_steps.centre(i)
-        found = [x for x in (self.comm.allgather(loc) if self.comm.size > 1 and not local else [loc]) if x is not None]
-        return found[0] if found else None
-
-    def unstable_message(self, dt, why, dts=None, local=False) -> Message:
-        """The message of a run gone unstable (collective unless ``local``), the remedies naming the
-        solver's arguments (:class:`~fenics_plast.errors.Message`)."""
-        dts = self.stable_dt() if dts is None else dts
-        head = (f"explicit run went unstable at t = {self.t * 1e6:.4g} us (step {self.step_count}): {why}; "
-                f"time step {dt:.4g} s, current stable limit {dts:.4g} s.")
-        bad = self._nonfinite_cell(local)
-        if bad is None:
-            return Message(head, " Lower ", Arg("dt_safety"), " or raise ", Arg("steps"))
-        ax = ("r", "z") if self.kin.axisymmetric else ("x", "y", "z")[: self.bs]
-        where = f"({', '.join(ax)}) = ({', '.join(f'{x:.4g}' for x in bad[1])}) mm"
-        return Message(head, f" The stress became non-finite in cell {bad[0]} (the mesh file's cell order; "
-                       f"reference {where}): most likely the cell folded (inverted), which a smaller time step does "
-                       "not prevent, nor mass scaling. Remedies: a finer mesh (", Arg("mesh"), ") or one graded "
-                       "toward that cell; another element or material model (", Arg("element"), ", ",
-                       Arg("material.model"), ") may follow the deformation further; element erosion (",
-                       Arg("erosion_ratio"), ") removes such cells and goes on; a node passing a rigid support's "
-                       "plane is stopped by a wall on every node (", Arg("add_wall"), ")")
+            self.eroded_reported = e["cells"]

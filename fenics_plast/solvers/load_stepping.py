@@ -21,7 +21,7 @@ def drive(solver, increments, min_increment, max_increment, lam_end, callback, g
     ``on_checkpoint(solver, loop)`` is called after the callback of every ``checkpoint_every``-th
     converged increment (counted over the solver's life; 0: never), ``loop`` holding this loop's
     variables (JSON-able); ``resume=loop`` continues the run() call that saved it (after
-    ``solver.load_state``; ignored by a run() call to another lam_end).
+    ``solver.restart.load_state``; ignored by a run() call to another lam_end).
     """
     if not solver.is_set_up:
         solver.setup()

@@ -34,6 +34,8 @@ from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 from fenics_plast.errors import RunError
 from fenics_plast.schema import choices, default
 from fenics_plast.solvers import krylov, load_stepping
+from fenics_plast.solvers.dirichlet import DirichletConditions
+from fenics_plast.solvers.static_restart import StaticRestart
 
 _prefix_counter = itertools.count()
 
@@ -127,8 +129,7 @@ class StaticSolver:
         # static_surface_contact.SurfaceContactTerm): residual(b) adds to the residual vector, jacobian(A) to
         # the Jacobian, both with global indices, at the state of the last residual
         self.terms = []
-        self._bcs = []          # (DirichletBC, g Function, g0 array): g = lam * g0
-        self._prescribed = []   # (DirichletBC, g Function, X (3, n), value(X, t)): g = value(X, lam)
+        self.dirichlet = DirichletConditions(self.V, self.W)    # prescribed displacements, scaled by lam
         self.options = dict(rtol=rtol, atol=atol, max_iterations=max_iterations,
                             linesearch=linesearch, stol=stol, linear_solver=linear_solver,
                             linear_rtol=linear_rtol, linear_max_iterations=linear_max_iterations,
@@ -150,8 +151,8 @@ class StaticSolver:
         # linear solves (SNES.solve less its callbacks: factorisations, triangular solves, line-search vector
         # work); ``jacobians``: the Jacobians assembled (and so factorised)
         self.times = dict(material=0.0, residual_assembly=0.0, jacobian_assembly=0.0, linear=0.0)
+        self.restart = StaticRestart(self)          # the state a resumed run needs (checkpoints)
         self.jacobians = 0
-        self._bc_gap = None         # work vector of _bc_values_reached
 
     # -- problem definition -------------------------------------------------------------------
     def log(self, msg):
@@ -161,47 +162,15 @@ class StaticSolver:
             else:
                 print(msg, flush=True)
 
-    def _facets(self, facet_tags, tag):
-        return facet_tags.find(tag) if np.isscalar(tag) else np.asarray(tag, dtype=np.int32)
-
     def add_dirichlet(self, component, facet_tags, tag, value=0.0, where=None):
-        """u[component] = lam * value on facets (value: float or callable x -> array).
-
-        ``where(X) -> bool mask`` optionally keeps only dofs at coordinates X (n, 3): use it to
-        avoid constraining a dof twice (e.g. a corner shared with a symmetry line).
-        """
-        fdim = self.mesh.topology.dim - 1
-        facets = self._facets(facet_tags, tag)
-        Vsub = self.V.sub(component)
-        Vc, _ = Vsub.collapse()
-        dofs = fem.locate_dofs_topological((Vsub, Vc), fdim, facets)
-        if where is not None:
-            keep = np.asarray(where(Vc.tabulate_dof_coordinates()[dofs[1]]), dtype=bool)
-            dofs = [dofs[0][keep], dofs[1][keep]]
-        g = fem.Function(Vc)
-        if callable(value):
-            g.interpolate(lambda x: np.asarray(value(x), dtype=float) * np.ones(x.shape[1]))
-        else:
-            g.x.array[:] = float(value)
-        g0 = g.x.array.copy()
-        g.x.array[:] = self.lam * g0
-        bc = fem.dirichletbc(g, dofs, Vsub)
-        self._bcs.append((bc, g, g0))
-        return bc
+        """u[component] = lam * value on the facets: :meth:`DirichletConditions.add
+        <fenics_plast.solvers.dirichlet.DirichletConditions.add>`."""
+        return self.dirichlet.add(component, facet_tags, tag, value, where, self.lam)
 
     def add_prescribed(self, component, facet_tags, tag, value):
-        """u[component] = value(X, lam) on facets: ``value(X (3, n) reference coordinates, lam) -> (n,)``
-        is evaluated at every load factor (tables and expressions of x, y, z, t of a scene file)."""
-        fdim = self.mesh.topology.dim - 1
-        Vsub = self.V.sub(component)
-        Vc, _ = Vsub.collapse()
-        dofs = fem.locate_dofs_topological((Vsub, Vc), fdim, self._facets(facet_tags, tag))
-        g = fem.Function(Vc)
-        X = Vc.tabulate_dof_coordinates().T.copy()
-        g.x.array[:] = np.asarray(value(X, self.lam), dtype=float) * np.ones(X.shape[1])
-        bc = fem.dirichletbc(g, dofs, Vsub)
-        self._prescribed.append((bc, g, X, value))
-        return bc
+        """u[component] = value(X, lam) on the facets: :meth:`DirichletConditions.add_prescribed
+        <fenics_plast.solvers.dirichlet.DirichletConditions.add_prescribed>`."""
+        return self.dirichlet.add_prescribed(component, facet_tags, tag, value, self.lam)
 
     def add_residual(self, R, J=None):
         """Extra residual term (e.g. a pressure, using self.load, self.u, self.v)."""
@@ -211,25 +180,13 @@ class StaticSolver:
         self._extra_J.append(J)
 
     def constrained_dofs(self, component, facet_tags, tag, where=None):
-        """Owned W-dof indices of u[component] on the facets (for reactions).
-
-        ``where(X) -> bool mask`` optionally filters by the dof coordinates X (n, 3).
-        """
-        fdim = self.mesh.topology.dim - 1
-        facets = self._facets(facet_tags, tag)
-        Vsub = self.V.sub(component)
-        Vc, _ = Vsub.collapse()
-        dofs, cdofs = fem.locate_dofs_topological((Vsub, Vc), fdim, facets)
-        imap = self.W.dofmap.index_map
-        n_owned = imap.size_local * self.W.dofmap.index_map_bs
-        keep = dofs < n_owned
-        if where is not None:
-            keep &= np.asarray(where(Vc.tabulate_dof_coordinates()[cdofs]), dtype=bool)
-        return np.asarray(dofs[keep], dtype=np.int32)
+        """Owned W-dof indices of u[component] on the facets (reactions): :meth:`DirichletConditions.dofs
+        <fenics_plast.solvers.dirichlet.DirichletConditions.dofs>`."""
+        return self.dirichlet.dofs(component, facet_tags, tag, where)
 
     @property
     def bcs(self):
-        return [b[0] for b in self._bcs] + [b[0] for b in self._prescribed]
+        return self.dirichlet.bcs
 
     # -- PETSc objects ------------------------------------------------------------------------
     def setup(self):
@@ -409,7 +366,7 @@ class StaticSolver:
         with b.localForm() as bl:
             bl.set(0.0)
         fpetsc.assemble_vector(b, self.R_form)
-        if not self._bc_values_reached(x):   # else the lifting A (g - x) is zero: skipped, same vector
+        if not self.dirichlet.values_reached(x):   # else the lifting A (g - x) is zero: skipped, same vector
             dc.apply_lifting(b, [self.J_form], bcs=[self.bcs], x0=[x], alpha=-1.0)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         if self.terms:
@@ -425,20 +382,6 @@ class StaticSolver:
         self.times["material"] += t1 - t0
         self.times["residual_assembly"] += t2 - t1
         self._callback_time += t2 - t0
-
-    def _bc_values_reached(self, x) -> bool:
-        """Whether ``x`` holds the Dirichlet values g on every constrained dof (collective). Then the residual's
-        lifting, -A (g - x) on the free rows, is zero, and assembling it (every boundary cell's tangent, every
-        cell's coefficients packed) is skipped. It is not zero only at the first iteration after the tangent
-        predictor, which leaves the constrained dofs at their converged values."""
-        if not self.bcs:
-            return True
-        if self._bc_gap is None:
-            self._bc_gap = x.duplicate()
-        with self._bc_gap.localForm() as gl:
-            gl.set(0.0)
-        fpetsc.set_bc(self._bc_gap, self.bcs, x, -1.0)      # x - g on the owned constrained dofs
-        return self._bc_gap.norm(PETSc.NormType.INFINITY) == 0.0
 
     def _jacobian(self, snes, x, A, P):
         if not self._jacobian_due(snes.getIterationNumber()):
@@ -479,10 +422,7 @@ class StaticSolver:
     def set_load(self, lam):
         self.lam = float(lam)
         self.load.value = self.lam
-        for bc, g, g0 in self._bcs:
-            g.x.array[:] = self.lam * g0
-        for bc, g, X, value in self._prescribed:
-            g.x.array[:] = np.asarray(value(X, self.lam), dtype=float) * np.ones(X.shape[1])
+        self.dirichlet.set_load(self.lam)
 
     def solve_increment(self, lam, lam_prev_step=None, tangent_predictor=False):
         """Newton solve at load factor lam from the last converged state. Returns (ok, its, reason).
@@ -657,75 +597,6 @@ class StaticSolver:
         self._predict(lam, None, False)
         self._residual(self.snes, self.x, self.b)
         return np.array(self.b.array_r)
-
-    # -- checkpoints (fenics_plast.checkpoint) ---------------------------------------------------
-    def state_dict(self):
-        """The state a resumed run needs, at a converged increment (collective; see
-        fenics_plast.checkpoint): the owned entries of w, w_n, w_nm1 (displacement [mm] and, q1p0,
-        dilatation), the committed quadrature-point state (``qmap.state()``: binv (n,3,3), eqps (n,), the
-        temperature (n,) [K] of Johnson-Cook materials), keyed by node, cell or point; the load factor,
-        force scale [N], round-off floor [N], counters, the increment and cut-back records, and MUMPS
-        ICNTL(14)."""
-        from fenics_plast.checkpoint import Keyed, owned_keyed
-        kw, kq = self.checkpoint_keys()
-        icntl = PETSc.Options().getInt(self.prefix + "mat_mumps_icntl_14", 100) if self.is_set_up else 100
-        d = dict(w=owned_keyed(self.w, kw), w_n=owned_keyed(self.w_n, kw), w_nm1=owned_keyed(self.w_nm1, kw),
-                 **{k: Keyed(v, kq) for k, v in self.qmap.state().items()},
-                 lam_converged=self.lam_converged, force_scale=self.force_scale,
-                 roundoff_floor=self.roundoff_floor, total_iterations=self.total_iterations,
-                 total_iterations_failed=self.total_iterations_failed, jacobians=self.jacobians,
-                 increments=self.increments,
-                 cutbacks=self.cutbacks, linesearch_retries=self.linesearch_retries,
-                 mumps_workspace_raises=getattr(self, "mumps_workspace_raises", []),
-                 mumps_icntl_14=icntl)
-        return d
-
-    def checkpoint_keys(self):
-        """(dof keys of W, quadrature-point keys of the owned points): the checkpoint's keys, which
-        name each value by node coordinates and cell/point rather than by this run's numbering."""
-        if not hasattr(self, "_ck_keys"):
-            from fenics_plast.checkpoint import dof_keys, qp_keys
-            self._ck_keys = (dof_keys(self.W), qp_keys(self.mesh, self.qmap.n_owned, self.qmap.nq))
-        return self._ck_keys
-
-    def load_state(self, d):
-        """Restore :meth:`state_dict` (collective). Raises CheckpointError on every rank when the
-        checkpoint is of another mesh or layout."""
-        from fenics_plast import checkpoint as ck
-        ck.require(d, ["w", "w_n", "w_nm1", *self.qmap.state(), "lam_converged", "force_scale", "roundoff_floor",
-                       "total_iterations", "increments", "cutbacks"], "static solver")
-        if not self.is_set_up:
-            self.setup()
-        kw, kq = self.checkpoint_keys()
-        why = None
-        try:
-            n = self.W.dofmap.index_map.size_local * self.W.dofmap.index_map_bs
-            owned = {k: d[k].take(kw[:n]) for k in ("w", "w_n", "w_nm1")}
-            qp = {k: d[k].take(kq) for k in self.qmap.state()}
-        except ck.CheckpointError as e:
-            why = str(e)
-        ck.raise_on_any(self.comm, why)
-        for k in ("w", "w_n", "w_nm1"):
-            fun = getattr(self, k)
-            fun.x.array[:n] = owned[k]
-            fun.x.scatter_forward()
-        self.qmap.set_state(qp)
-        self.lam_converged = float(d["lam_converged"])
-        self.set_load(self.lam_converged)
-        self.force_scale = float(d["force_scale"])
-        self.roundoff_floor = float(d["roundoff_floor"])
-        self.total_iterations = int(d["total_iterations"])
-        self.total_iterations_failed = int(d.get("total_iterations_failed", 0))
-        self.jacobians = int(d.get("jacobians", 0))
-        self.increments = list(d["increments"])
-        self.cutbacks = list(d["cutbacks"])
-        self.linesearch_retries = list(d.get("linesearch_retries", []))
-        if hasattr(self, "mumps_workspace_raises"):
-            self.mumps_workspace_raises = list(d.get("mumps_workspace_raises", []))
-        icntl = int(d.get("mumps_icntl_14", 100))
-        if icntl != PETSc.Options().getInt(self.prefix + "mat_mumps_icntl_14", 100):
-            PETSc.Options()[self.prefix + "mat_mumps_icntl_14"] = icntl
-            self.snes.getKSP().setFromOptions()
 
     def run(self, increments=default("analysis.increments"), min_increment=default("analysis.min_increment"),
             max_increment=default("analysis.max_increment"), lam_end=1.0, callback=None, growth=1.5,

@@ -15,7 +15,7 @@ import numpy as np
 
 from fenics_plast.errors import Arg, Message, RunError
 from fenics_plast.schema import key
-from fenics_plast.solvers.collapse import collapse_error, fold_error
+from fenics_plast.solvers.collapse import collapse_error, fold_error, unstable_message
 
 
 def drive(solver, end_time, dt_safety, steps, rows, on_row, progress, max_steps, bar, checkpoint_every,
@@ -99,7 +99,7 @@ def drive(solver, end_time, dt_safety, steps, rows, on_row, progress, max_steps,
                 solver.step(dt)
         except (np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError) as e:
             # (rank-local: no collective in the message)
-            raise RunError(solver.unstable_message(dt, f"step failed: {e}", dt_stable, local=True)) from None
+            raise RunError(unstable_message(solver, dt, f"step failed: {e}", dt_stable, local=True)) from None
         dt_min, dt_max = min(dt_min, dt), max(dt_max, dt)
         if solver.pending_fold is not None:
             # the next step would fold a cell (every rank knows): stop at the last finite state
@@ -113,7 +113,7 @@ def drive(solver, end_time, dt_safety, steps, rows, on_row, progress, max_steps,
             raise e
         if solver.step_failure is not None:
             # a non-finite stress or force (every rank knows): the step was not taken
-            raise RunError(solver.unstable_message(dt, solver.step_failure, dt_stable))
+            raise RunError(unstable_message(solver, dt, solver.step_failure, dt_stable))
         if solver.step_count % solver.reestimate_every == 0:
             if bar is not None:
                 bar.update(solver.t * 1e6, step=solver.step_count, dt_ns=dt * 1e9)
@@ -124,7 +124,7 @@ def drive(solver, end_time, dt_safety, steps, rows, on_row, progress, max_steps,
                 fail = [f for f in fail if f]
                 if fail:
                     why += f"; {fail[0]}"
-                raise RunError(solver.unstable_message(dt, why, dt_stable))
+                raise RunError(unstable_message(solver, dt, why, dt_stable))
             if steps is not None:
                 if mass_scaling_dt > 0.0:
                     solver.scale_mass(mass_scaling_dt)
@@ -144,7 +144,7 @@ def drive(solver, end_time, dt_safety, steps, rows, on_row, progress, max_steps,
         while next_prog < len(prog_times) and solver.t >= prog_times[next_prog] - eps_t:
             e = solver.energies()
             if not math.isfinite(e["kinetic"]) or e["kinetic"] > solver.ke_limit():
-                raise RunError(solver.unstable_message(dt, f"kinetic energy {e['kinetic']:.4g}"))
+                raise RunError(unstable_message(solver, dt, f"kinetic energy {e['kinetic']:.4g}"))
             solver.log(f"  t = {solver.t * 1e6:8.3f} us  step {solver.step_count:6d}  dt = {dt:.3e} s  "
                        f"KE = {e['kinetic'] / 1e3:9.3f} J  W_int = {e['internal_work'] / 1e3:9.3f} J  "
                        f"max eqps = {solver.max_eqps():.3f}  energy error = {e['balance_error']:.2e}")
