@@ -159,7 +159,7 @@ def test_fold_stops_at_the_last_finite_state():
     state = [a.copy() for a in _state(s)]
     assert all(np.isfinite(a).all() for a in state)
     assert e.stats["steps"] == s.step_count and e.results["stopped_at_us"] == pytest.approx(s.t / US)
-    assert s.folded_cells() == -1                       # the state kept has no folded cell
+    assert s.guard.folded_cells() == -1                       # the state kept has no folded cell
     # bit for bit the state of a run stopped before that step by max_steps (steps grouped otherwise)
     b2 = build_explicit(load_problem(TAYLOR, ["output.history_points=9", velocity(1000)]), COMM)
     b2.solver.run(80 * US, rows=9, progress=0, max_steps=s.step_count)
@@ -168,7 +168,7 @@ def test_fold_stops_at_the_last_finite_state():
         np.testing.assert_array_equal(a, b)
     # the step from there folds the cell named
     s.step(e.stats["dt_max"])
-    assert s.pending_fold is not None and s.step_count == b2.solver.step_count
+    assert s.guard.pending_fold is not None and s.step_count == b2.solver.step_count
 
 
 def test_ufl_route_and_fixed_steps_stop_alike():

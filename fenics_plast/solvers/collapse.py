@@ -173,7 +173,7 @@ FOLD_IN_ONE_STEP = 0.05
 def fold_error(solver, fold, dt_stable0, dt_floor, mass_scaling_dt,
                step_key=Message(Arg("dt_safety"))) -> CellFold:
     """The :class:`CellFold` of a step that would fold a cell (collective), the solver back at the
-    last finite state. ``fold``: each rank's note of the failed step (``ExplicitDynamics._fold_back``:
+    last finite state. ``fold``: each rank's note of the failed step (``StepGuard.step_failed``:
     ``cell``, its most folded owned cell there, ``j_next`` that cell's smallest point Jacobian,
     ``finite`` whether u was finite, ``dt`` the step [s]). The cell named is the most folded one of
     all ranks (ties: the lowest index in the mesh file), described at the stop as the time-step
@@ -197,7 +197,7 @@ def fold_error(solver, fold, dt_stable0, dt_floor, mass_scaling_dt,
         d_el = float(cs.element_dt(np.array([i]))[0])
         c = _cell_info(solver, i, max(d_size, d_el) if solver.stable_step == "element" else d_size, d_size, d_el)
         jnow = np.empty(solver.n_cells_own)
-        solver.folded_cells(jnow)
+        solver.guard.folded_cells(jnow)
         c["j_now"] = float(jnow[i])
     c = comm.bcast(c, root=best[2]) if comm.size > 1 else c
     j_next = best[0]

@@ -84,13 +84,14 @@ from fenics_plast.material import MaterialRegions
 from fenics_plast.quadrature import MaterialUpdateError, QuadratureMap
 from fenics_plast.schema import choices, default, key
 from fenics_plast.solvers import fused_force
-from fenics_plast.solvers.fused_force_hex import HexGeometry, hex_folded_cells
+from fenics_plast.solvers.fused_force_hex import HexGeometry
 from fenics_plast.solvers import integrator as ti
 from fenics_plast.solvers import time_stepping
 from fenics_plast.solvers.cell_steps import CellSteps, cell_masses
 from fenics_plast.solvers.body_surface import TwoPassPair
 from fenics_plast.solvers.explicit_contact import ContactSet
 from fenics_plast.solvers.explicit_restart import ExplicitRestart
+from fenics_plast.solvers.step_guard import StepGuard
 from fenics_plast.solvers.walls import RigidWalls
 
 
@@ -231,15 +232,12 @@ class ExplicitDynamics:
         # buffers
         self.a = np.zeros(self.n_own)
         self.du = np.zeros(self.n_own)
-        self.kept = np.zeros((2, self.n_own))      # v, du before the step in progress (_undo_step)
-        self.pending_fold = None                           # a step that would fold a cell, undone (_fold_back)
-        self._flag = np.zeros(1, dtype=np.int32)    # _any_rank's buffer
+        self.guard = StepGuard(self)              # a step that would fold a cell or is not finite: undone
         self.t = 0.0
         self.step_count = 0
         self.W_int = 0.0          # local (owned) accumulators, reduced when reported
         self.W_ext = 0.0
         self.KE0 = None
-        self.step_failure = None
         # the stable step per cell, selective mass scaling (run(mass_scaling_dt=...), :meth:`scale_mass`)
         # and the erosion statistics: each cell's share of its nodes' mass and its Lame constants
         cell_mass, lam, mu = cell_masses(material, self.density, self.regions, self.geometry.N, self.geometry.W)
@@ -452,17 +450,18 @@ class ExplicitDynamics:
         ``ti.STEP_OK``; ``ti.STEP_FOLDS`` when a cell folds at u on some rank (a quadrature point's
         Jacobian <= 0 or not finite: :func:`fused_force.folded_cell`, checked first on both routes):
         no rank has written anything of its quadrature state, stress or force, and the step is to be
-        undone (:meth:`_fold_back`); or ``ti.STEP_NONFINITE`` when a stress or force is not finite
-        on some rank (``_failure`` says which, on every rank; the fused route has committed that
-        update, the ufl route has not)."""
+        undone (``guard``, a :class:`~fenics_plast.solvers.step_guard.StepGuard`); or ``ti.STEP_NONFINITE``
+        when a stress or force is not finite on some rank (``guard.step_failure`` says which, on every rank;
+        the fused route has committed that update, the ufl route has not)."""
         if self.fused:
-            if not self._no_fold(fused_force.folded_cell(self.force_args)):
+            if not self.guard.no_fold(fused_force.folded_cell(self.force_args)):
                 return ti.STEP_FOLDS
             ok = fused_force.update_and_force(self.force_args)
             if self.comm.size > 1:
                 dc.scatter_reverse_add(self._ffun)
-            return self._agree(None if ok else f"non-finite stress or internal force at step {self.step_count + 1}")
-        if not self._no_fold(self.folded_cells()):
+            why = None if ok else f"non-finite stress or internal force at step {self.step_count + 1}"
+            return self.guard.agree(why)
+        if not self.guard.no_fold(self.guard.folded_cells()):
             return ti.STEP_FOLDS
         if self.theta is not None:
             self._update_theta()
@@ -471,7 +470,7 @@ class ExplicitDynamics:
             self.qmap.update(tangent=False)      # into the trial state (collective writes, then raises)
         except MaterialUpdateError as e:
             why = f"{e} at step {self.step_count + 1}"
-        if self._agree(why) != ti.STEP_OK:
+        if self.guard.agree(why) != ti.STEP_OK:
             return ti.STEP_NONFINITE            # nothing committed, no force assembled, on any rank
         self.qmap.commit()
         b = self._f
@@ -480,72 +479,6 @@ class ExplicitDynamics:
         fem_petsc.assemble_vector(b, self._L_int)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         return ti.STEP_OK
-
-    def _no_fold(self, bad):
-        """True when no rank has a folding cell (``bad``: this rank's first one, or -1)."""
-        return not self._any_rank(bad >= 0)
-
-    def _any_rank(self, flag):
-        """``flag`` of any rank (one Allreduce of a preallocated int under MPI: called every step)."""
-        if self.comm.size == 1:
-            return bool(flag)
-        self._flag[0] = 1 if flag else 0
-        self.comm.Allreduce(MPI.IN_PLACE, self._flag, op=MPI.MAX)
-        return bool(self._flag[0])
-
-    def _agree(self, why):
-        """``ti.STEP_OK`` when no rank has a failure (``why``: this rank's reason, or None); else
-        ``ti.STEP_NONFINITE`` with ``_failure`` set on every rank (the lowest rank's reason)."""
-        if not self._any_rank(why is not None):
-            return ti.STEP_OK
-        whys = [w for w in self.comm.allgather(why) if w] if self.comm.size > 1 else [why]
-        if self.step_failure is None:
-            self.step_failure = whys[0]
-        return ti.STEP_NONFINITE
-
-    def folded_cells(self, jmin=None):
-        """The first owned cell that folds at the current u (-1: none), by the fused pass's test
-        (:func:`fused_force.quad_folded_cells`, :func:`~fenics_plast.solvers.fused_force_hex.hex_folded_cells`);
-        ``jmin`` (n_cells_own,), when given, gets each cell's smallest point Jacobian (+inf: eroded or
-        eroding, -inf: not finite). Rank-local."""
-        g, u = self.geometry, self.u.x.array
-        buf = np.empty(0) if jmin is None else jmin
-        if self.three_d:
-            return int(hex_folded_cells(u, self.cell_nodes, g.dNdX, g.W, self.alive, self.erosion_ratio, buf))
-        return int(fused_force.quad_folded_cells(u, self.cell_nodes, g.dNdX, g.N, g.Rinv, g.W, self.alive,
-                                                 self.erosion_ratio, buf))
-
-    def _fold_back(self, dt):
-        """The step of size dt [s] would fold a cell: note the most folded cell of this rank at that
-        state (``_fold``: its owned index, smallest point Jacobian, whether u is finite) and go back
-        to the last finite state (:meth:`_undo_step`). Rank-local; run() stops the run
-        (:func:`~fenics_plast.solvers.collapse.fold_error`, collective)."""
-        jmin = np.empty(self.n_cells_own)
-        self.folded_cells(jmin)
-        i = int(np.argmin(jmin)) if jmin.size else -1
-        self.pending_fold = dict(cell=i, j_next=float(jmin[i]) if i >= 0 else math.inf, dt=dt,
-                          finite=bool(np.isfinite(self.u.x.array[: self.n_own]).all()))
-        self._undo_step()
-
-    def _step_failed(self, status, dt):
-        """After a step of size dt whose force pass failed (``ti.STEP_FOLDS``: :meth:`_fold_back`;
-        ``ti.STEP_NONFINITE``: u, v, du back, :meth:`_undo_step`, the quadrature state as the pass
-        left it, ``_failure`` set): the step is not counted and run() stops."""
-        if status == ti.STEP_FOLDS:
-            self._fold_back(dt)
-        else:
-            self._undo_step()
-
-    def _undo_step(self):
-        """Back to the state before the step in progress, whose force pass failed: u = u_n (owned and
-        ghosts), v and du as kept before the step (``kept``), no wall stop
-        pending, theta = theta_n (ufl route); u_n stays equal to u."""
-        self.u.x.array[:] = self.u_n.x.array
-        self.v.x.array[: self.n_own] = self.kept[0]
-        self.du[:] = self.kept[1]
-        self.walls.args[5][:] = 0
-        if self.theta is not None:
-            self.theta.x.array[:] = self.theta_n.x.array
 
     def initialize(self):
         """Internal force and energies at t = 0 (call after set_velocity)."""
@@ -561,16 +494,15 @@ class ExplicitDynamics:
 
     def step(self, dt):
         """One central-difference step of size dt [s] (velocity-Verlet form, see module doc). A step
-        that would fold a cell is not taken: the state stays the last finite one and ``_fold`` says
-        where (:meth:`_fold_back`)."""
+        that would fold a cell is not taken: the state stays the last finite one and
+        ``guard.pending_fold`` says where."""
         self.qmap.dt[0] = dt              # the material update's time increment (Johnson-Cook rate, heating)
         n = self.n_own
-        self.kept[0] = self.v.x.array[:n]           # v, du before the step (_undo_step)
-        self.kept[1] = self.du
+        self.guard.keep()                           # v, du before the step (undone if it fails)
         if self.has_drivers:
             status = self.drivers.step(dt)
             if status != ti.STEP_OK:
-                self._step_failed(status, dt)
+                self.guard.step_failed(status, dt)
                 return
             self.t += dt
             self.step_count += 1
@@ -585,7 +517,7 @@ class ExplicitDynamics:
             self.u.x.scatter_forward()
         status = self.internal_force()
         if status != ti.STEP_OK:
-            self._step_failed(status, dt)   # back to the last finite u, v (no kick, not counted)
+            self.guard.step_failed(status, dt)   # back to the last finite u, v (no kick, not counted)
             return
         # trapezoidal work of the internal forces. Constrained dofs have du = 0 (homogeneous
         # velocity BCs: fixed sliding walls), so the support reactions do no work: W_ext stays 0.
@@ -604,15 +536,16 @@ class ExplicitDynamics:
         else:
             work = np.array([self.W_int])
             done, status = ti.advance(nsteps, dt, self.v.x.array, self.a, self.free_minv, self.du,
-                                      self.n_own, self.force_args, work, self.mass, self.walls.args, self.kept)
+                                      self.n_own, self.force_args, work, self.mass, self.walls.args,
+                                      self.guard.kept)
             self.W_int = float(work[0])
         for _ in range(done):
             self.t += dt
         self.step_count += done
         if status != ti.STEP_OK:          # the next step failed: not taken (serial)
-            if status == ti.STEP_NONFINITE and self.step_failure is None:
-                self.step_failure = f"non-finite stress or internal force at step {self.step_count + 1}"
-            self._step_failed(ti.STEP_FOLDS if status >= 0 else status, dt)
+            if status == ti.STEP_NONFINITE and self.guard.step_failure is None:
+                self.guard.step_failure = f"non-finite stress or internal force at step {self.step_count + 1}"
+            self.guard.step_failed(ti.STEP_FOLDS if status >= 0 else status, dt)
 
     def allreduce(self, x, op):
         """Global reduction of a float (no MPI call in serial: it is checked every few steps)."""

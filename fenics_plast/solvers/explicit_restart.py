@@ -19,8 +19,8 @@ class ExplicitRestart:
         """The state a resumed run needs (see fenics_plast.checkpoint; collective): the owned entries
         of u, u_n, v, a, du, f [mm, mm/s, mm/s^2, N] and of theta/theta_n (ufl route, q1p0), the
         committed quadrature-point state binv (n,3,3) and eqps (n,) (and the temperature (n,) [K] of
-        Johnson-Cook materials), each keyed by node, cell or point; the time t [s], the step count, KE0 and the (summed) work accumulators W_int, W_ext
-        [N mm]. With drivers also: the load and contact force vectors fload, fcon [N], the
+        Johnson-Cook materials), each keyed by node, cell or point; the time t [s], the step count, KE0 and
+        the (summed) work accumulators W_int, W_ext [N mm]. With drivers also: the load and contact force vectors fload, fcon [N], the
         prescribed dofs' reactions reac [N], the summed load and reaction work W_load, W_sets
         [N mm], E0_stored, and per contact pair its nodal history (contact<i>: t_n, N_n, p_n, t,
         f_c) and accumulators (contact<i>_acc, contact<i>_pen). Once selective mass scaling has added

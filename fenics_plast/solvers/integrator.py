@@ -55,7 +55,7 @@ step times t_k (computed by repeated addition exactly as the step-by-step path d
 A step whose force pass fails (a cell that folds: :func:`fused_force.folded_cell`, before anything
 is written; or a stress or force that is not finite) ends the loop before its loads, contact and
 kick: it is not counted, and the solver goes back to the state before it (u = u_n, v and du as
-kept before the step), see :data:`STEP_OK` and ``ExplicitDynamics._step_failed``.
+kept before the step), see :data:`STEP_OK` and ``StepGuard.step_failed``.
 """
 from __future__ import annotations
 
@@ -176,7 +176,7 @@ def advance(nsteps, dt, v, a, free_minv, du, n, force_args, work, mass, walls, k
     work : (1,) internal work [N mm], incremented step by step
     exactly as :meth:`ExplicitDynamics.step` does (so the result does not depend on how steps are
     grouped). kept (2, n): v and du (owned entries) before the step in progress, what the solver's
-    ``_undo_step`` needs, with u_n, to go back to the last finite state.
+    ``StepGuard.undo_step`` needs, with u_n, to go back to the last finite state.
     Returns (steps done, status): status :data:`STEP_OK`; or the owned cell that the next step
     folds (>= 0: :func:`fused_force.folded_cell`; that step wrote no state, stress or force, and
     u_n, kept restore its u, v, du); or :data:`STEP_NONFINITE` (the next step's stress or force is
@@ -535,7 +535,7 @@ class Drivers:
         out = advance_general(nsteps, dt, s.v.x.array, s.a, s.free_minv, s.mass, s.du, self.n, s.force_args,
                               self.fload, d.fload_rows, self.pdofs, self.pkind, self.pset, d.pvals, self.pv_old,
                               self.r_old, self.reac, self.wset, self.fcon, s.contact.args(), d.trans, work,
-                              s.walls.args, s.kept)
+                              s.walls.args, s.guard.kept)
         s.W_int, self.W_load = float(work[0]), float(work[1])
         return out
 

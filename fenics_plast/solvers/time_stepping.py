@@ -101,26 +101,26 @@ def drive(solver, end_time, dt_safety, steps, rows, on_row, progress, max_steps,
             # (rank-local: no collective in the message)
             raise RunError(unstable_message(solver, dt, f"step failed: {e}", dt_stable, local=True)) from None
         dt_min, dt_max = min(dt_min, dt), max(dt_max, dt)
-        if solver.pending_fold is not None:
+        if solver.guard.pending_fold is not None:
             # the next step would fold a cell (every rank knows): stop at the last finite state
-            e = fold_error(solver, solver.pending_fold, dt_stable0, dt_floor, mass_scaling_dt,
+            e = fold_error(solver, solver.guard.pending_fold, dt_stable0, dt_floor, mass_scaling_dt,
                            step_key=Message(Arg("dt_safety"), f", now {dt_safety:g}") if steps is None else
                            Message("more ", Arg("steps"), f" than {int(steps)}"))
-            solver.pending_fold = None
+            solver.guard.pending_fold = None
             e.stats = stats(e.dt_stable)
             e.loop = dict(next_row=next_row, next_prog=next_prog, dt_stable=dt_stable,
                           dt_stable0=dt_stable0, dt_min=dt_min, dt_max=dt_max)
             raise e
-        if solver.step_failure is not None:
+        if solver.guard.step_failure is not None:
             # a non-finite stress or force (every rank knows): the step was not taken
-            raise RunError(unstable_message(solver, dt, solver.step_failure, dt_stable))
+            raise RunError(unstable_message(solver, dt, solver.guard.step_failure, dt_stable))
         if solver.step_count % solver.reestimate_every == 0:
             if bar is not None:
                 bar.update(solver.t * 1e6, step=solver.step_count, dt_ns=dt * 1e9)
             ke = solver.kinetic_energy()
             if not math.isfinite(ke) or ke > solver.ke_limit():
                 why = f"kinetic energy {ke:.4g} N mm vs initial {solver.KE0:.4g} N mm"
-                fail = solver.comm.allgather(solver.step_failure)
+                fail = solver.comm.allgather(solver.guard.step_failure)
                 fail = [f for f in fail if f]
                 if fail:
                     why += f"; {fail[0]}"
