@@ -67,7 +67,7 @@ from typing import Any, Mapping
 import numpy as np
 
 __all__ = ["FORMAT", "CheckpointError", "Checkpointer", "Keyed", "KeyedTable", "scene_settings", "check_resume",
-           "write_atomic", "dof_keys", "qp_keys", "cell_keys", "owned_keyed", "raise_on_any",
+           "write_atomic", "dof_keys", "qp_keys", "cell_keys", "owned_keyed", "set_owned", "raise_on_any",
            "DIRNAME", "mesh_fingerprint", "file_digest", "file_label", "fingerprint", "check_fingerprint", "own_files",
            "remove_own"]
 
@@ -293,6 +293,13 @@ def owned_keyed(fun, keys=None) -> Keyed:
     n = dm.index_map.size_local * dm.index_map_bs
     keys = dof_keys(fun.function_space) if keys is None else keys
     return Keyed(fun.x.array[:n].copy(), keys[:n])
+
+
+def set_owned(fun, values) -> None:
+    """The owned entries of a dolfinx Function (unrolled, its first ``len(values)``) set to ``values``, and its
+    ghosts updated from their owners (collective): the restore of :func:`owned_keyed`'s values."""
+    fun.x.array[: len(values)] = values
+    fun.x.scatter_forward()
 
 
 # ----------------------------------------------------------------------------------------------

@@ -5,15 +5,11 @@ the plane as its mirror image, so a node on the plane pressed into a facet tilte
 split alike); both solvers build their master surfaces so from a scene's symmetry boundaries; the
 quarter-symmetric 3-D rod-on-rod equals the quarter bar on a frictionless rigid plane, with and without
 friction (coarse quarters; the demo's mesh: README), and 2 ranks repeat the serial run."""
-import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-from scene_runs import MPIRUN, needs_mpirun
+from scene_runs import history, needs_mpirun, run_scene
 
 from fenics_plast.solvers.surface_gaps import OPEN_BOUNDARY_TOLERANCE, nearest_points, oriented_surface
 
@@ -148,15 +144,9 @@ COARSE = ["mesh.parameters.cells_radial=3", "mesh.parameters.cells_axial=18"]
 ROD_PENALTY, WALL_PENALTY = 1.95e5, 7.8e5       # the scenes' 3.9e5 and 1.56e6 N/mm^3 at half the cells
 
 
-def run(scene, out, *sets, launch=()):
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_", "OPAL_"))}
-    cmd = [*launch, sys.executable, "-m", "fenics_plast.cli", "run", str(scene), "--out", str(out),
-           "--set", "output.xdmf=false", "--set", "output.plots=false"]
-    for s in [*COARSE, *sets]:
-        cmd += ["--set", s]
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=1200, env=dict(env, FENICS_PLAST_PROGRESS="off"))
-    assert r.returncode == 0, r.stderr[-3000:]
-    return json.loads((Path(out) / "summary.json").read_text())
+def run(scene, out, *sets, np_ranks=1):
+    """The coarse quarters' summary (no fields, no plots)."""
+    return run_scene(scene, out, "output.xdmf=false", "output.plots=false", *COARSE, *sets, np_ranks=np_ranks)
 
 
 @pytest.fixture(scope="module")
@@ -193,10 +183,10 @@ def test_quarter_rod_on_rod_3d_serial_equals_two_ranks(tmp_path):
     """On 2 ranks (the faces and their centres gathered from both, the nodes on the symmetry planes too, the
     reactions summed back) the coarse quarters' history, friction 0.3, is the serial one to 1e-10."""
     hist = []
-    for name, launch in (("serial", ()), ("mpi", (MPIRUN, "--allow-run-as-root", "--oversubscribe", "-n", "2"))):
+    for name, ranks in (("serial", 1), ("mpi", 2)):
         run(REPO / "demos" / "taylor_rod_on_rod_3d.toml", tmp_path / name, "analysis.end_time=20",
-            f"contact.interface.penalty={ROD_PENALTY}", "contact.interface.friction=0.3", launch=launch)
-        hist.append(np.genfromtxt(tmp_path / name / "history.csv", delimiter=",", names=True))
+            f"contact.interface.penalty={ROD_PENALTY}", "contact.interface.friction=0.3", np_ranks=ranks)
+        hist.append(history(tmp_path / name))
     for col in hist[0].dtype.names:
         scale = max(np.max(np.abs(hist[0][col])), 1e-30)
         assert np.max(np.abs(hist[1][col] - hist[0][col])) <= 1e-10 * scale, col

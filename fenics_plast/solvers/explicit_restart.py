@@ -16,19 +16,19 @@ class ExplicitRestart:
         self.solver = solver
 
     def state_dict(self):
-        """The state a resumed run needs (see fenics_plast.checkpoint; collective): the owned entries
-        of u, u_n, v, a, du, f [mm, mm/s, mm/s^2, N] and of theta/theta_n (ufl route, q1p0), the
-        committed quadrature-point state binv (n,3,3) and eqps (n,) (and the temperature (n,) [K] of
-        Johnson-Cook materials), each keyed by node, cell or point; the time t [s], the step count, KE0 and
-        the (summed) work accumulators W_int, W_ext [N mm]. With drivers also: the load and contact force vectors fload, fcon [N], the
-        prescribed dofs' reactions reac [N], the summed load and reaction work W_load, W_sets
-        [N mm], E0_stored, and per contact pair its nodal history (contact<i>: t_n, N_n, p_n, t,
-        f_c) and accumulators (contact<i>_acc, contact<i>_pen). Once selective mass scaling has added
-        mass: the nodal mass [tonne] (by dof), the cells' density factors cell_scale (by cell) and
-        the summed E_mass [N mm]. With walls: their summed energy E_wall [N mm]; with element erosion:
-        the cells' ``alive`` flags (by cell)."""
-        s = self.solver
+        """The state a resumed run needs (see fenics_plast.checkpoint; collective): the owned entries of u,
+        u_n, v, a, du, f [mm, mm/s, mm/s^2, N] and of theta/theta_n (ufl route, q1p0), the committed
+        quadrature-point state binv (n,3,3) and eqps (n,) (and the temperature (n,) [K] of Johnson-Cook
+        materials), each keyed by node, cell or point; the time t [s], the step count, KE0 and the (summed)
+        work accumulators W_int, W_ext [N mm]. With drivers also: the load and contact force vectors fload,
+        fcon [N], the prescribed dofs' reactions reac [N], the summed load and reaction work W_load, W_sets
+        [N mm], E0_stored, and per contact pair its nodal history (contact<i>: t_n, N_n, p_n, t, f_c) and
+        accumulators (contact<i>_acc, contact<i>_pen). Once selective mass scaling has added mass: the nodal
+        mass [tonne] (by dof), the cells' density factors cell_scale (by cell) and the summed E_mass [N mm].
+        With walls: their summed energy E_wall [N mm]; with element erosion: the cells' ``alive`` flags (by
+        cell)."""
         from fenics_plast.checkpoint import Keyed, owned_keyed
+        s = self.solver
         kv, kq = self.keys()
         n = s.n_own
         d = dict(u=owned_keyed(s.u, kv), u_n=owned_keyed(s.u_n, kv), v=owned_keyed(s.v, kv),
@@ -56,17 +56,17 @@ class ExplicitRestart:
     def keys(self):
         """(dof keys of V, quadrature-point keys of the owned points): the checkpoint's keys, which
         name each value by node coordinates and cell/point rather than by this run's numbering."""
-        s = self.solver
         if not hasattr(self, "_keys"):
             from fenics_plast.checkpoint import dof_keys, qp_keys
+            s = self.solver
             self._keys = (dof_keys(s.V), qp_keys(s.mesh, s.n_cells_own, s.qmap.nq))
         return self._keys
 
     def load_state(self, d):
         """Restore :meth:`state_dict` (collective). Raises CheckpointError (on every rank) when the
         checkpoint is of another mesh or layout. The summed work accumulators go to rank 0."""
-        s = self.solver
         from fenics_plast import checkpoint as ck
+        s = self.solver
         keys = ["u", "u_n", "v", "a", "du", "f", *s.qmap.state(), "t", "step_count", "W_int", "W_ext", "KE0"]
         keys += ["theta", "theta_n"] if s.theta is not None else []
         keys += s.drivers.required_keys() if s.has_drivers else []
@@ -95,18 +95,14 @@ class ExplicitRestart:
             why = str(e)
         ck.raise_on_any(s.comm, why)
         for k in ("u", "u_n", "v"):
-            fun = getattr(s, k)
-            fun.x.array[:n] = owned[k]
-            fun.x.scatter_forward()
+            ck.set_owned(getattr(s, k), owned[k])
         s.a[:] = owned["a"]
         s.du[:] = owned["du"]
         s.f[:] = owned["f"]
         s.qmap.set_state(qp)
         if s.theta is not None:
             for k in ("theta", "theta_n"):
-                fun = getattr(s, k)
-                fun.x.array[:nt] = owned_t[k]
-                fun.x.scatter_forward()
+                ck.set_owned(getattr(s, k), owned_t[k])
         s.t = float(d["t"])
         s.step_count = int(d["step_count"])
         root = s.comm.rank == 0

@@ -21,8 +21,8 @@ class StaticRestart:
         temperature (n,) [K] of Johnson-Cook materials), keyed by node, cell or point; the load factor,
         force scale [N], round-off floor [N], counters, the increment and cut-back records, and MUMPS
         ICNTL(14)."""
-        s = self.solver
         from fenics_plast.checkpoint import Keyed, owned_keyed
+        s = self.solver
         kw, kq = self.keys()
         icntl = PETSc.Options().getInt(s.prefix + "mat_mumps_icntl_14", 100) if s.is_set_up else 100
         d = dict(w=owned_keyed(s.w, kw), w_n=owned_keyed(s.w_n, kw), w_nm1=owned_keyed(s.w_nm1, kw),
@@ -39,17 +39,17 @@ class StaticRestart:
     def keys(self):
         """(dof keys of W, quadrature-point keys of the owned points): the checkpoint's keys, which
         name each value by node coordinates and cell/point rather than by this run's numbering."""
-        s = self.solver
         if not hasattr(self, "_keys"):
             from fenics_plast.checkpoint import dof_keys, qp_keys
+            s = self.solver
             self._keys = (dof_keys(s.W), qp_keys(s.mesh, s.qmap.n_owned, s.qmap.nq))
         return self._keys
 
     def load_state(self, d):
         """Restore :meth:`state_dict` (collective). Raises CheckpointError on every rank when the
         checkpoint is of another mesh or layout."""
-        s = self.solver
         from fenics_plast import checkpoint as ck
+        s = self.solver
         ck.require(d, ["w", "w_n", "w_nm1", *s.qmap.state(), "lam_converged", "force_scale", "roundoff_floor",
                        "total_iterations", "increments", "cutbacks"], "static solver")
         if not s.is_set_up:
@@ -64,9 +64,7 @@ class StaticRestart:
             why = str(e)
         ck.raise_on_any(s.comm, why)
         for k in ("w", "w_n", "w_nm1"):
-            fun = getattr(s, k)
-            fun.x.array[:n] = owned[k]
-            fun.x.scatter_forward()
+            ck.set_owned(getattr(s, k), owned[k])
         s.qmap.set_state(qp)
         s.lam_converged = float(d["lam_converged"])
         s.set_load(s.lam_converged)
