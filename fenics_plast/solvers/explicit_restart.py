@@ -4,6 +4,8 @@ or quadrature point rather than by one run's numbering, so that a run on other r
 """
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 from mpi4py import MPI
 
@@ -13,7 +15,9 @@ class ExplicitRestart:
     :meth:`state_dict` to save, :meth:`load_state` to restore, :meth:`keys` what names the values."""
 
     def __init__(self, solver):
-        self.solver = solver
+        # a weak reference: a cycle solver <-> this object would leave the solver's PETSc objects to the garbage
+        # collector, which runs at different times on different ranks (their collective destroy would hang)
+        self.solver = weakref.proxy(solver)
 
     def state_dict(self):
         """The state a resumed run needs (see fenics_plast.checkpoint; collective): the owned entries of u,

@@ -4,6 +4,8 @@ keyed by node, cell or quadrature point rather than by one run's numbering.
 """
 from __future__ import annotations
 
+import weakref
+
 from petsc4py import PETSc
 
 
@@ -12,7 +14,9 @@ class StaticRestart:
     :meth:`state_dict` to save, :meth:`load_state` to restore, :meth:`keys` what names the values."""
 
     def __init__(self, solver):
-        self.solver = solver
+        # a weak reference: a cycle solver <-> this object would leave the solver's PETSc objects to the garbage
+        # collector, which runs at different times on different ranks (their collective destroy would hang)
+        self.solver = weakref.proxy(solver)
 
     def state_dict(self):
         """The state a resumed run needs, at a converged increment (collective; see

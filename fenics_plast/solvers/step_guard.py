@@ -12,6 +12,7 @@ non-finite step (``step_failure``), and undoes the step (:meth:`~StepGuard.step_
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 from mpi4py import MPI
@@ -30,7 +31,9 @@ class StepGuard:
     non-finite step (the lowest rank's), or None."""
 
     def __init__(self, solver):
-        self.solver = solver
+        # a weak reference: a cycle solver <-> this object would leave the solver's PETSc objects to the garbage
+        # collector, which runs at different times on different ranks (their collective destroy would hang)
+        self.solver = weakref.proxy(solver)
         self.kept = np.zeros((2, solver.n_own))
         self.pending_fold = None
         self.step_failure = None
