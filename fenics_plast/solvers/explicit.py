@@ -50,11 +50,11 @@ prescribed motion, loads and contact see :mod:`fenics_plast.solvers.integrator`)
 * Fold guard (every step, both routes): the force pass first checks the new displacement's point
   Jacobians (:func:`fused_force.folded_cell`: det F <= 0, F_hh <= 0 or not finite, in a living cell
   that erosion does not take); a step that would fold a cell writes nothing of the state, stress or
-  force, is undone (u = u_n, v and du kept before it) and the run stops at that last finite state
-  with a :class:`~fenics_plast.solvers.collapse.CellFold`, handled by the runner as a collapse. A
-  fold is not a collapse of the stable step: in the Taylor bar above 300 m/s the axis cells fold
-  at 1.2-11 % of the initial step (at 5000 m/s in the third step, at 66 % of it), far above the
-  floor, and the point Jacobian goes through zero within one step.
+  force, is undone (u = u_n, v and du kept before it: ``guard``, :mod:`~fenics_plast.solvers.step_guard`)
+  and the run stops at that last finite state with a :class:`~fenics_plast.solvers.collapse.CellFold`,
+  handled by the runner as a collapse. A fold is not a collapse of the stable step: in the Taylor bar
+  above 300 m/s the axis cells fold at 1.2-11 % of the initial step (at 5000 m/s in the third step, at
+  66 % of it), far above the floor, and the point Jacobian goes through zero within one step.
 * Selective mass scaling (``mass_scaling_dt``, :meth:`~ExplicitDynamics.scale_mass`): at every
   re-estimate the cells whose stable step is below the target get density (factor s_c, never
   lowered) so that theirs reaches it; the mass goes to their nodes (assembled over the ranks) and

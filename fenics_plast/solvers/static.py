@@ -7,8 +7,9 @@ incremental deformation gradient Fu = Fbar(u, theta) Fbar(u_n, theta_n)^-1 at th
 points, runs the material update from the committed state, and assembles; the Jacobian is
 assembled from the consistent tangent computed in the same update.
 
-Loading is a scalar load factor ``lam`` in [0, 1]: Dirichlet values are ``lam * value`` and
-extra residual terms (pressures) may use ``solver.load`` (a fem.Constant equal to lam).
+Loading is a scalar load factor ``lam`` in [0, 1]: Dirichlet values are ``lam * value`` (``dirichlet``,
+:mod:`fenics_plast.solvers.dirichlet`) and extra residual terms (pressures) may use ``solver.load`` (a
+fem.Constant equal to lam). A resumed run's state: ``restart`` (:mod:`fenics_plast.solvers.static_restart`).
 
 Geometries: those of :class:`fenics_plast.kinematics.Kinematics` (2-D quadrilaterals, 3-D
 hexahedra). Linear solves: ``linear_solver="mumps"`` (LU, the default) or ``"gamg"`` (GMRES + GAMG
