@@ -133,6 +133,14 @@ class BodySurface:
         mirrored = np.concatenate([np.isin(self.vertex_nodes, _nodes_on(V, facet_tags, mirror_tags)),
                                    np.zeros(len(self.quads), dtype=bool)])
         self.surface = oriented_surface(self._with_centres(X0), facets, mirrored=mirrored)
+        # the (dim nfv, dim k) map from the k real vertices a facet acts on to its vertices (3-D: the triangle's
+        # two corners, then the centre as the mean of its quadrilateral's four); None in 2-D (the identity)
+        self.to_facet_vertices = None
+        if bs == 3:
+            C = np.zeros((3 * bs, 6 * bs))
+            C[:2 * bs, :2 * bs] = np.eye(2 * bs)
+            C[2 * bs:, 2 * bs:] = np.tile(0.25 * np.eye(bs), 4)
+            self.to_facet_vertices = C
         self.increment = np.zeros((nv + len(self.quads), bs))  # displacement of each vertex over the last step [mm]
         self._moved = np.zeros((nv, 2 * bs))
 
@@ -150,19 +158,13 @@ class BodySurface:
         return out
 
     def element_nodes(self, facet):
-        """(m, k) the real vertices whose dofs the facets (m,) act on, and the constant (dim nfv, dim k) matrix
-        C taking their dofs' values to the facet vertices' (a facet vertex's displacement = C applied to
-        theirs): 2-D: the segment's two, C = I; 3-D: the triangle's two corners and the quadrilateral's
-        four (its centre is their mean), C maps those four to the centre with a quarter each."""
+        """(m, k) the real vertices whose dofs the facets (m,) act on: 2-D the segment's two; 3-D the triangle's
+        two corners and its quadrilateral's four (the centre is their mean; ``to_facet_vertices`` maps their
+        dofs' values to the facet vertices')."""
         F = self.surface.facets[facet]
-        d = self.dim
         if not len(self.quads):
-            return F, np.eye(d * F.shape[1])
-        nodes = np.concatenate([F[:, :2], self.quads[F[:, 2] - len(self.vertex_nodes)]], axis=1)
-        C = np.zeros((3 * d, 6 * d))
-        C[:2 * d, :2 * d] = np.eye(2 * d)
-        C[2 * d:, 2 * d:] = np.tile(0.25 * np.eye(d), 4)
-        return nodes, C
+            return F
+        return np.concatenate([F[:, :2], self.quads[F[:, 2] - len(self.vertex_nodes)]], axis=1)
 
     @staticmethod
     def _outward(facets, X, centroids):

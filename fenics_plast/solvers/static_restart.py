@@ -36,7 +36,7 @@ class StaticRestart:
                  total_iterations_failed=s.total_iterations_failed, jacobians=s.jacobians,
                  increments=s.increments,
                  cutbacks=s.cutbacks, linesearch_retries=s.linesearch_retries,
-                 mumps_workspace_raises=getattr(s, "mumps_workspace_raises", []),
+                 mumps_workspace_raises=s.mumps_workspace_raises,
                  mumps_icntl_14=icntl)
         return d
 
@@ -80,8 +80,7 @@ class StaticRestart:
         s.increments = list(d["increments"])
         s.cutbacks = list(d["cutbacks"])
         s.linesearch_retries = list(d.get("linesearch_retries", []))
-        if hasattr(s, "mumps_workspace_raises"):
-            s.mumps_workspace_raises = list(d.get("mumps_workspace_raises", []))
+        s.mumps_workspace_raises = list(d.get("mumps_workspace_raises", []))
         icntl = int(d.get("mumps_icntl_14", 100))
         if icntl != PETSc.Options().getInt(s.prefix + "mat_mumps_icntl_14", 100):
             PETSc.Options()[s.prefix + "mat_mumps_icntl_14"] = icntl

@@ -106,6 +106,11 @@ class SurfaceContactTerm:
         imap = Vc.dofmap.index_map
         self.skip = surface.skip_of(imap.local_to_global(blocks.astype(np.int32)))
         self.self_contact = surface.tag == tag          # the group against its own facets
+        C = surface.to_facet_vertices                   # the slave's dofs, then C from the master nodes' (3-D)
+        self._to_element = None
+        if C is not None:
+            self._to_element = np.zeros((d + C.shape[0], d + C.shape[1]))
+            self._to_element[:d, :d], self._to_element[d:, d:] = np.eye(d), C
         self._equations_built = False                           # at the first residual (bcs complete)
         n = len(blocks)
         self.g, self.N = np.zeros(n), np.zeros((n, d))
@@ -153,8 +158,9 @@ class SurfaceContactTerm:
         on = np.flatnonzero(self.pressed)        # pressed or touching: a tangent (a body held by contact alone)
         self._active = on
         if len(on):
-            eq, C = self._equations_of(on)
+            eq = self._equations_of(on)
             r = self.r[on]
+            C = self.surface.to_facet_vertices
             if C is not None:               # the element's forces on the master nodes' dofs: C^T f
                 r = np.concatenate([r[:, :self.dim], r[:, self.dim:] @ C], axis=1)
             eq, r = eq.ravel(), r.ravel()
@@ -200,12 +206,10 @@ class SurfaceContactTerm:
         self.u_c[:] = self.contact.w_c.x.array[self.vmap]
 
     def _equations_of(self, rows):
-        """(the global equations (m, dim (1 + k)) of the slave nodes ``rows`` and of the k master nodes their
-        facets act on, the matrix C from those master nodes' dofs to the facet vertices' or None where it is
-        the identity: :meth:`~fenics_plast.solvers.body_surface.BodySurface.element_nodes`)."""
-        nodes, C = self.surface.element_nodes(self.facet[rows])
-        eq = np.concatenate([self._slave_eq[rows], self._master_eq[nodes].reshape(len(rows), -1)], axis=1)
-        return eq, (None if C.shape[0] == C.shape[1] else C)
+        """The global equations (m, dim (1 + k)) of the slave nodes ``rows`` and of the k master nodes their
+        facets act on (:meth:`~fenics_plast.solvers.body_surface.BodySurface.element_nodes`)."""
+        nodes = self.surface.element_nodes(self.facet[rows])
+        return np.concatenate([self._slave_eq[rows], self._master_eq[nodes].reshape(len(rows), -1)], axis=1)
 
     def jacobian(self, A):
         """A += the contact tangent at the state of the last :meth:`residual` (SNES evaluates the residual,
@@ -213,14 +217,10 @@ class SurfaceContactTerm:
         on = self._active
         if not len(on):
             return
-        eq, C = self._equations_of(on)
         K = self.K[on]
-        if C is not None:                   # the element's tangent on the master nodes' dofs: Ce^T K Ce
-            d = self.dim
-            Ce = np.zeros((d + C.shape[0], d + C.shape[1]))
-            Ce[:d, :d], Ce[d:, d:] = np.eye(d), C
-            K = Ce.T @ K @ Ce
-        eq = np.ascontiguousarray(eq, dtype=PETSc.IntType)
+        if self._to_element is not None:    # the element's tangent on the master nodes' dofs: Ce^T K Ce
+            K = self._to_element.T @ K @ self._to_element
+        eq = np.ascontiguousarray(self._equations_of(on), dtype=PETSc.IntType)
         A.setValuesRCV(eq, eq, np.ascontiguousarray(K), addv=PETSc.InsertMode.ADD)    # one block a node
 
     # -- reports (collective) --------------------------------------------------------------------
