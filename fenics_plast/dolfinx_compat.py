@@ -106,12 +106,17 @@ def mixed_space(mesh, parts):
 
 
 def quadrature_space(mesh, degree: int, shape: tuple[int, ...]):
-    """Quadrature space of tensors of ``shape`` at the points of ``quadrature_rule(cell, degree)``."""
+    """Quadrature space of tensors of ``shape`` (() for scalars) at the points of
+    ``quadrature_rule(cell, degree)``."""
     cellname = mesh.ufl_cell().cellname()
     if LEGACY:
         kw = dict(degree=degree, quad_scheme="default")
-        el = (ufl.VectorElement("Quadrature", cellname, dim=shape[0], **kw) if len(shape) == 1
-              else ufl.TensorElement("Quadrature", cellname, shape=shape, **kw))
+        if len(shape) == 0:
+            el = ufl.FiniteElement("Quadrature", cellname, **kw)
+        elif len(shape) == 1:
+            el = ufl.VectorElement("Quadrature", cellname, dim=shape[0], **kw)
+        else:
+            el = ufl.TensorElement("Quadrature", cellname, shape=shape, **kw)
         return fem.FunctionSpace(mesh, el)
     return fem.functionspace(mesh, _bufl.quadrature_element(cellname, value_shape=shape, scheme="default",
                                                             degree=degree))

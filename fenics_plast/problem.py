@@ -66,7 +66,7 @@ class Problem:
     @property
     def active_physics(self) -> list[str]:
         """What the problem assembles: plasticity, inertia, contact, friction, tractions, walls (rigid
-        walls' stops), erosion (element erosion in the force pass)."""
+        walls' stops), erosion (element erosion in the force pass), heat conduction ([thermal])."""
         phys = set()
         if any(m.hardening is not None for m in self.materials.values()):
             phys.add("plasticity")
@@ -82,6 +82,8 @@ class Problem:
             phys.add("walls")
         if self.explicit and self.analysis.erosion_ratio > 0.0:
             phys.add("erosion")
+        if self.tables.get("thermal") is not None:
+            phys.add("heat conduction")
         return sorted(phys)
 
     def to_dict(self) -> dict[str, Any]:

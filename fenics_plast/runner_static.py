@@ -170,7 +170,8 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None, since=0
     """The static solver of ``problem`` with its boundary conditions, loads and contact pairs, set
     up and ready to ``run``: a namespace of ``solver``, ``material``, ``tools``, ``contact`` (the
     contact set or None), ``pairs``, ``contact_pairs`` (name -> :class:`fenics_plast.build.ContactPair`:
-    depth, default penalty), ``reactions`` ((group, component) -> dofs), ``body``
+    depth, default penalty), ``thermal`` (the heat conduction's
+    :class:`fenics_plast.thermal.build.ThermalCoupling`, None without [thermal]), ``reactions`` ((group, component) -> dofs), ``body``
     (:class:`Body`, on the collapsed displacement space), ``positions()`` (current node positions),
     mesh, cell_tags, facet_tags, groups. ``log``, ``progress``: as for :class:`StaticSolver`. A mesh made
     by remeshing at load ``since``: prescribed displacements count from there, and the contact pairs keep
@@ -199,6 +200,10 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None, since=0
         return X + s.w.x.array[vmap].reshape(-1, gdim)
 
     tool_force = tool_force_of(problem, pairs, gdim)
+    thermal = None
+    if problem.thermal is not None:
+        from fenics_plast.thermal.build import thermal_coupling
+        thermal = thermal_coupling(problem, kin, s.u, s.qmap, ct, ft, groups)
 
     def tool_translation(tool, t):
         return tools[tool].translation(t, use_ufl=False)
@@ -207,8 +212,9 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None, since=0
                 reaction=s.reaction, tool_force=tool_force, tool_translation=tool_translation,
                 geometry=problem.mesh.geometry,
                 contact_force=lambda name: np.asarray(pairs[name].force()),
-                contact_nodes=lambda name: pairs[name].contact_nodes())
-    return SimpleNamespace(solver=s, material=material, tools=tools, contact=contact, pairs=pairs,
+                contact_nodes=lambda name: pairs[name].contact_nodes(),
+                heat=None if thermal is None else thermal.heat)
+    return SimpleNamespace(solver=s, material=material, tools=tools, contact=contact, pairs=pairs, thermal=thermal,
                            contact_pairs=specs,
                            reactions=reactions, body=body, positions=positions, Vc=Vc, mesh=mesh, cell_tags=ct,
                            facet_tags=ft, groups=groups)
@@ -260,6 +266,10 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
     def remesh_columns():
         return {} if remesher is None else dict(remeshes=remesher.count)
 
+    def time_columns(t):
+        """The physical time [s] of pseudo-time t, in a run that has one (analysis.duration)."""
+        return {} if ana.duration is None else dict(time_s=t * ana.duration)
+
     def write_fields(t):
         if run.xf is None:
             return
@@ -273,12 +283,16 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
             run.xf.write_function(f, t)
         for f in contact_fields(run.b, run.b.Vc):
             run.xf.write_function(f, t)
+        if run.b.thermal is not None:
+            run.xf.write_function(run.b.thermal.heat.T, t)
 
     loop = None
     if saved is not None:
         b.solver.restart.load_state(saved["solver"])
         if b.contact is not None:
             b.contact.load_state(saved["contact"])
+        if b.thermal is not None:
+            b.thermal.load_state(saved["thermal"])
         r = saved["runner"]
         quantities = run.quantities
         quantities.history, quantities.times, state["count"] = r["history"], r["times"], r["count"]
@@ -289,7 +303,8 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
             energy.resumed()
         output.log(f"{problem.name}: resumed at increment {len(b.solver.increments)}, t = {b.solver.lam_converged:.6g}")
     else:
-        output.history(increment=0, time=0.0, **run.quantities.row(0.0), newton_iterations=0, **remesh_columns())
+        output.history(increment=0, time=0.0, **time_columns(0.0), **run.quantities.row(0.0), newton_iterations=0,
+                       **remesh_columns())
         write_fields(0.0)
 
     def on_checkpoint(solver, loop_state):
@@ -307,7 +322,8 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
                             profiles={k: [(t, list(a), list(b)) for t, a, b in v]
                                       for k, v in quantities.profiles.items()},
                             remesh=remesh_entry),
-                **({"remesh_state": remesh_state} if remeshed_body else {}))
+                **({"remesh_state": remesh_state} if remeshed_body else {}),
+                **({} if run.b.thermal is None else {"thermal": run.b.thermal.state_dict()}))
     ck_args = {} if ck is None else dict(checkpoint_every=ck.every, on_checkpoint=on_checkpoint)
 
     def make_callback(step_end):
@@ -319,7 +335,9 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
             t = solver.lam_converged
             if energy is not None:
                 energy.update()
-            output.history(increment=rec["increment"], time=t, **run.quantities.row(t),
+            if run.b.thermal is not None:
+                run.b.thermal.after_increment(t)
+            output.history(increment=rec["increment"], time=t, **time_columns(t), **run.quantities.row(t),
                            newton_iterations=rec["iterations"], **remesh_columns())
             if abs(t - step_end) <= 1e-12 * max(1.0, step_end):
                 run.quantities.record_profiles(t)

@@ -80,12 +80,14 @@ def read_mesh(problem, comm, trust_mesh_script=False):
 def scene_groups(problem, gdim):
     """[(scene key, group or region name, dimension)] of every group and region the scene names, in the
     order their names are checked: boundary conditions first (a misspelt boundary group is named as
-    such), then contact, outputs, materials and initial velocities."""
+    such), then thermal boundaries, contact, outputs, materials and initial velocities."""
     fdim = gdim - 1
     out = []
     for n, b in problem.boundary.items():
         if b.group is not None:                 # (a wall without group stops every node)
             out.append((f"boundary.{n}.group", b.group, fdim))
+    for n, b in problem.thermal_boundary.items():
+        out.append((f"thermal_boundary.{n}.group", b.group, fdim))
     for n, c in problem.contact.items():
         out.append((f"contact.{n}.group", c.group, fdim))
         if c.get("master") is not None:

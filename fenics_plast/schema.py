@@ -30,6 +30,7 @@ from fenics_plast.scene_key import OPTIONAL, REQUIRED, Key, number_text
 from fenics_plast.state_variables import outputs as state_outputs
 from fenics_plast import meshed_tools
 from fenics_plast.tool_shapes import shapes as tool_shapes
+from fenics_plast.thermal.boundaries import TYPES as thermal_boundary_types
 
 __all__ = ["SCHEMA", "SECTIONS", "Key", "Table", "REQUIRED", "OPTIONAL", "COMPONENTS", "COMPONENTS_3D", "GEOMETRIES",
            "component_index", "component_names", "is_cell_count", "vector_size", "LAWS", "US", "M_S", "KG_M3",
@@ -157,6 +158,18 @@ def _tools_table() -> Table:
                  collection=True, discriminator="shape", keys=keys)
 
 
+def _thermal_boundary_table() -> Table:
+    """``thermal_boundary.<name>``, gathered from the thermal boundary types' declarations
+    (:mod:`fenics_plast.thermal.boundaries`, :func:`_gathered`)."""
+    types = thermal_boundary_types.values()
+    keys = {"group": Key("str", REQUIRED, "Gmsh physical curve (3-D: surface) name, a facet group."),
+            "type": Key("str", REQUIRED, "; ".join(t.doc for t in types) + ".", choices=tuple(thermal_boundary_types))}
+    keys.update(_gathered(((t.name, t.keys) for t in types), "type"))
+    return Table("Thermal boundary conditions (with [thermal]), one table per name, each on a facet group; a "
+                 "boundary without one is insulated. Heat into the body counts positive.",
+                 collection=True, discriminator="type", when_analysis=STATIC, keys=keys)
+
+
 SCHEMA: dict[str, Table] = {
     "scene": Table("What the problem is.", optional=False, keys={
         "name": Key("str", REQUIRED, "Problem name; the default output directory is results/<name>."),
@@ -210,6 +223,10 @@ SCHEMA: dict[str, Table] = {
                              "the contact predictor). Both converge to the same solution of an increment; 'contact' "
                              "takes fewer iterations on curved tools (3-D punch: 169 against 254), so the increments "
                              "grow sooner.", when={"type": STATIC}, choices=("contact", "plain")),
+            "duration": Key("float", OPTIONAL, "Physical time of a static analysis: the pseudo-time t lasts t x "
+                            "duration seconds (the press's stroke time: t from 0 to 1 is one stroke). Required "
+                            "by [thermal] (heat conduction needs time); absent: no physical time.", "s",
+                            when={"type": STATIC}, **_pos()),
             "end_time": Key("float", REQUIRED, "Simulated time.", "µs", when={"type": EXPLICIT}, scale=US, **_pos()),
             "dt_safety": Key("float", 0.8, "Time step = dt_safety x the stable limit.", when={"type": EXPLICIT},
                              lo=0.0, hi=1.0, hi_open=False),
@@ -278,8 +295,15 @@ SCHEMA: dict[str, Table] = {
                          "exponential map in log strain.", choices=("seed", "isochoric")),
             "E": Key("float", REQUIRED, "Young's modulus.", "MPa", **_pos()),
             "nu": Key("float", REQUIRED, "Poisson's ratio.", "", lo=-1.0, hi=0.5),
-            "density": Key("float", OPTIONAL, "Mass density (required in explicit analyses).", "kg/m³",
-                           scale=KG_M3, **_pos()),
+            "density": Key("float", OPTIONAL, "Mass density (required in explicit analyses and with [thermal]).",
+                           "kg/m³", scale=KG_M3, **_pos()),
+            "conductivity": Key("float", OPTIONAL, "Thermal conductivity k (with [thermal], required there).",
+                                "W/(m K)", **_pos()),
+            "specific_heat": Key("float", OPTIONAL, "Specific heat c (with [thermal], required there): rho c the "
+                                 "heat capacity per volume.", "J/(kg K)", **_pos()),
+            "taylor_quinney": Key("float", 0.9, "Taylor-Quinney coefficient beta (with [thermal]): the fraction of "
+                                  "the plastic work that heats the body.", "", lo=0.0, lo_open=False, hi=1.0,
+                                  hi_open=False),
         }, subtables={"hardening": _hardening_table()}),
     "boundary": Table(
         "Boundary conditions and loads, one table per name, each on a Gmsh facet group. Static: t is the "
@@ -384,6 +408,16 @@ SCHEMA: dict[str, Table] = {
                          "asks).", lo=0, lo_open=False, when_analysis=STATIC),
             "max_remeshes": Key("int", 100, "The run stops with a message after this many remeshes.", **_count()),
         }),
+    "thermal": Table(
+        "Heat conduction in the body, coupled to the deformation (static analyses): the temperature is a "
+        "nodal field, advanced by one backward-Euler step after each converged increment over its physical "
+        "time (analysis.duration), heated by the plastic work (materials' taylor_quinney), with the "
+        "[thermal_boundary] conditions (elsewhere insulated). Needs analysis.duration and each material's "
+        "density, conductivity and specific_heat. Absent: no heat equation is assembled.",
+        when_analysis=STATIC, keys={
+            "initial_temperature": Key("float", REQUIRED, "Temperature of the body at t = 0.", "K", lo=0.0),
+        }),
+    "thermal_boundary": _thermal_boundary_table(),
     "outputs": Table(
         "Quantities recorded every increment (static) or history row (explicit): each is a history.csv "
         "column named <name>_<unit>, and its final value goes into summary.json. In axisymmetry, forces "
@@ -408,6 +442,10 @@ SCHEMA: dict[str, Table] = {
             "regions": Key("strs", OPTIONAL, "Cell regions (absent = the whole body); displacement and position "
                            "take the node nearest `point` among their cells' nodes.",
                            when={"quantity": taking("regions")}),
+            "statistic": Key("str", "max", "contact_pressure: max, the largest nodal pressure, or mean, the normal "
+                             "force over the area in contact; temperature: max, min or mean (the volume mean over "
+                             "the current body).", choices=("max", "min", "mean"),
+                             when={"quantity": taking("statistic")}),
             "unit": Key("str", "kN", "Force unit of the column.", choices=_FORCE_UNITS,
                         when={"quantity": taking("unit")}),
             "scale": Key("float", 1.0, "Factor applied to the measured value: e.g. 2 for the elongation of a "

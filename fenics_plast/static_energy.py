@@ -28,6 +28,8 @@ from __future__ import annotations
 import numpy as np
 from mpi4py import MPI
 
+from fenics_plast.thermal.plastic_heat import flow_stress_integral
+
 __all__ = ["StaticEnergy"]
 
 
@@ -114,7 +116,7 @@ class StaticEnergy:
 
     def plastic_from_state(self) -> float | None:
         """The plastic dissipation [N mm] the state's eqps implies: sum over the points of dV0 times the
-        integral of the flow stress from 0 to eqps (4-point Gauss-Legendre; dV0 = dv / J_e, the point's
+        integral of the flow stress from 0 to eqps (``thermal.plastic_heat.flow_stress_integral``; dV0 = dv / J_e, the point's
         stress-free volume), for one rate- and temperature-independent hardening law (None otherwise;
         collective). Independent of :meth:`energies`' plastic term (internal work minus elastic energy):
         the two agree where the flow stress is the Kirchhoff one of the isochoric model and remeshing
@@ -125,10 +127,7 @@ class StaticEnergy:
             return None
         eqps = np.asarray(s.qmap.state()["eqps"]).reshape(-1)
         _, dV0 = self._point_volumes()
-        xg, wg = np.polynomial.legendre.leggauss(4)
-        integral = np.zeros_like(eqps)
-        for x, w in zip(xg, wg):
-            integral += 0.5 * w * eqps * h(0.5 * (x + 1.0) * eqps)[0]
+        integral = flow_stress_integral(h, np.zeros_like(eqps), eqps)
         return s.comm.allreduce(float(np.sum(integral * dV0)), op=MPI.SUM)
 
     def energies(self) -> dict:

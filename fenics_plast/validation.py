@@ -397,6 +397,35 @@ def _remeshing_checks(t: dict[str, Any], v: _Validator, geometry: str):
                        f"functions of t alone (a new mesh's reference is the deformed shape)")
 
 
+def _thermal_checks(t: dict[str, Any], v: _Validator):
+    """[thermal] and what it needs: physical time, each material's heat capacity and conductivity; not yet
+    with Johnson-Cook hardening (its adiabatic temperature state) or [remeshing] (the field is not carried
+    across a remesh yet). Thermal keys without [thermal] would be ignored: refused."""
+    thermal = t.get("thermal")
+    if thermal is None:
+        if t["thermal_boundary"]:
+            v.fail(f"thermal_boundary.{next(iter(t['thermal_boundary']))}: thermal boundaries need a [thermal] table")
+        for n, m in t["materials"].items():
+            for k in ("conductivity", "specific_heat"):
+                if m.get(k) is not None:
+                    v.fail(f"materials.{n}.{k} is given but there is no [thermal] table (heat conduction): it "
+                           f"would be ignored")
+        return
+    if t["analysis"].duration is None:
+        v.fail("analysis.duration is missing: required by [thermal] (the physical time of the static "
+               "analysis, s)")
+    for n, m in t["materials"].items():
+        for k, unit in (("density", "kg/m³"), ("conductivity", "W/(m K)"), ("specific_heat", "J/(kg K)")):
+            if m.get(k) is None:
+                v.fail(f"materials.{n}.{k} is missing: required by [thermal] [{unit}]")
+        if m.hardening is not None and m.hardening.law == "johnson_cook":
+            v.fail(f"materials.{n}.hardening.law = 'johnson_cook' with [thermal]: not built yet (Johnson-Cook "
+                   f"keeps its own adiabatic temperature at the points); use a strain-only law")
+    if t.get("remeshing") is not None:
+        v.fail("thermal: [thermal] with [remeshing] is not built yet (the temperature field is not carried "
+               "across a remesh)")
+
+
 def _cross_checks(t: dict[str, Any], v: _Validator):
     """Rules between keys (each message names the keys)."""
     _name_checks(t, v)
@@ -406,6 +435,7 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
     _geometry_checks(t, v, geometry)
     if t.get("remeshing") is not None:
         _remeshing_checks(t, v, geometry)
+    _thermal_checks(t, v)
     if explicit and ana.erosion_ratio > 0.0 and ana.internal_force != "fused":
         v.fail(f"analysis.erosion_ratio = {_fmt(ana.erosion_ratio)} needs analysis.internal_force = 'fused': "
                f"element erosion is a part of the compiled force pass")
@@ -483,7 +513,8 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
     single_columns = [n for n, o in t["outputs"].items()
                       if column_count[n] == 1 and not getattr(kind(o.quantity), "DERIVED", False)]
     ctx = dict(tools=tools, contacts=t["contact"], explicit=explicit, symbols=single_columns, end=analysis_end(t),
-               loads=[n for n, b in t["boundary"].items() if b.type in ("traction", "pressure")])
+               loads=[n for n, b in t["boundary"].items() if b.type in ("traction", "pressure")],
+               thermal=t.get("thermal") is not None)
     for n, o in t["outputs"].items():
         d = f"outputs.{n}"
         _kind_check(o, "check", d, ctx, v)

@@ -22,7 +22,8 @@ class Body:
       ``contact_force(pair)`` -> (Fx, Fy[, Fz]) [N] of a contact pair's master surface on its group;
       ``contact_nodes(pair)`` -> its owned group nodes' positions, gaps, pressures, areas, indices and slip
       (:class:`fenics_plast.solvers.contact_law.ContactNodes`, the pairs' ``contact_nodes``);
-      ``energies()`` -> dict [N mm] (explicit only);
+      ``energies()`` -> dict [N mm] (explicit only); ``heat``: the run's
+      :class:`fenics_plast.thermal.heat.HeatConduction` (the temperature field, the heat balance) or None;
     * what the automatic quantities read (:data:`fenics_plast.quantities.registry.AUTOMATIC`), each None
       when the run has none: ``mass_scaling`` (``stats()``: the solver's mass-scaling statistics,
       ``target_us``), ``wall_energy()`` [N mm] (rigid walls), ``erosion`` (``stats()``: the solver's
@@ -31,13 +32,14 @@ class Body:
 
     def __init__(self, comm, V, X, positions, qmap, cell_regions, *, geometry, reaction=None, tool_force=None,
                  energies=None, tool_translation=None, mass_scaling=None, wall_energy=None, erosion=None,
-                 contact_force=None, contact_nodes=None):
+                 contact_force=None, contact_nodes=None, heat=None):
         self.comm, self.V, self.X, self.positions, self.qmap = comm, V, X, positions, qmap
         self.geometry = geometry
         self.cell_regions = cell_regions           # region name -> owned cell indices
         self.reaction, self.tool_force, self.energies = reaction, tool_force, energies
         self.tool_translation, self.contact_force = tool_translation, contact_force
         self.contact_nodes = contact_nodes
+        self.heat = heat                           # the HeatConduction of a run with [thermal], else None
         self.mass_scaling, self.wall_energy, self.erosion = mass_scaling, wall_energy, erosion
         self.n_owned_nodes = V.dofmap.index_map.size_local
 

@@ -4,18 +4,19 @@ scaled to carry the interface's whole normal force) or its mean over the area in
 the normal force over :mod:`contact_area`'s area)."""
 from __future__ import annotations
 
-from fenics_plast.scene_key import Key
-
 from .contact_area import area_and_force
-from .contact_force import check  # noqa: F401  (the pair must exist)
+from .contact_force import check as check_pair
 
 NAME, ORDER = "contact_pressure", 23
 DOC = "contact_pressure: largest or mean normal pressure of a contact pair"
-TAKES = ("contact",)
-KEYS = {
-    "statistic": Key("str", "max", "max: the largest nodal pressure; mean: the normal force over the area in "
-                     "contact.", choices=("max", "mean")),
-}
+TAKES = ("contact", "statistic")
+
+
+def check(d, o, ctx, fail):
+    check_pair(d, o, ctx, fail)
+    if o.statistic == "min":
+        fail(f"{d}.statistic = 'min': contact_pressure takes max (the largest nodal pressure) or mean (the normal "
+             f"force over the area in contact)")
 
 
 def columns(name, o):

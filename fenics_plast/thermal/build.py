@@ -1,0 +1,107 @@
+"""A scene's ``[thermal]``, ``[thermal_boundary.<name>]`` and materials' thermal keys turned into the
+heat conduction of a body and its coupling to the mechanical increments (issue 37).
+
+>>> coupling = thermal_coupling(problem, kin, u, qmap, material, cell_tags, facet_tags, groups)
+>>> coupling.after_increment(t)     # t: the converged pseudo-time; one heat step over (t - t_last) duration
+
+The coupling is staggered (isothermal split): each converged mechanical increment from t_last to t
+is followed by one backward-Euler heat step over the physical time (t - t_last) x
+``analysis.duration`` [s], with the increment's deformation and its plastic heat
+(:class:`fenics_plast.thermal.plastic_heat.PlasticHeat`). Scene units converted here: density
+kg/m^3 (already tonne/mm^3 in the Problem), specific heat J/(kg K) -> mJ/(tonne K) (x 1e6, so that
+rho c is in mJ/(mm^3 K)), conductivity W/(m K) = mW/(mm K) (no factor).
+"""
+from __future__ import annotations
+
+import numpy as np
+from dolfinx import fem
+
+from fenics_plast import dolfinx_compat as dc
+from fenics_plast.build import material_of
+from fenics_plast.thermal.boundaries import TYPES
+from fenics_plast.thermal.heat import HeatConduction
+from fenics_plast.thermal.plastic_heat import PlasticHeat
+
+__all__ = ["ThermalCoupling", "thermal_coupling", "J_PER_KG_K"]
+
+#: specific heat J/(kg K) x this = mJ/(tonne K): rho [tonne/mm^3] c -> mJ/(mm^3 K)
+J_PER_KG_K = 1e6
+
+
+class ThermalCoupling:
+    """The heat conduction of a body (``heat``) and what feeds it after each converged increment: the
+    plastic heat of the increment (``plastic``) over the physical time (pseudo-time x ``duration`` [s])."""
+
+    def __init__(self, heat: HeatConduction, plastic: PlasticHeat, qmap, duration: float):
+        self.heat, self.plastic, self.qmap = heat, plastic, qmap
+        self.duration = float(duration)
+        self.t_last = 0.0
+
+    def after_increment(self, t: float) -> None:
+        """One heat step from the last converged pseudo-time to ``t`` (collective)."""
+        q = self.plastic.step(self.qmap.eqps)
+        self.heat.advance((t - self.t_last) * self.duration, q)
+        self.t_last = float(t)
+
+    def state_dict(self) -> dict:
+        """The restart state (collective; :mod:`fenics_plast.checkpoint`): the field and the heats
+        (:meth:`HeatConduction.state_dict`), the eqps of the last heat step keyed by point, t_last."""
+        from fenics_plast.checkpoint import Keyed
+        kT, kq = self.keys()
+        return dict(**self.heat.state_dict(kT), eqps_last=Keyed(self.plastic.eqps_last.copy(), kq),
+                    t_last=self.t_last)
+
+    def load_state(self, d) -> None:
+        """Restore :meth:`state_dict` (collective: CheckpointError on every rank for another mesh)."""
+        from fenics_plast import checkpoint as ck
+        kT, kq = self.keys()
+        self.heat.load_state(d, kT)
+        why, eqps = None, None
+        try:
+            eqps = d["eqps_last"].take(kq)
+        except ck.CheckpointError as e:
+            why = str(e)
+        ck.raise_on_any(self.heat.comm, why)
+        self.plastic.eqps_last = np.asarray(eqps, dtype=float)
+        self.t_last = float(d["t_last"])
+
+    def keys(self):
+        """(dof keys of the temperature space, quadrature-point keys of the owned points): the checkpoint's."""
+        from fenics_plast.checkpoint import dof_keys, qp_keys
+        mesh = self.heat.mesh
+        n_owned = mesh.topology.index_map(mesh.topology.dim).size_local
+        return dof_keys(self.heat.V), qp_keys(mesh, n_owned, self.qmap.nq)
+
+
+def _cell_material(problem, cell_tags, groups, n_owned) -> np.ndarray:
+    """(owned cells,) the index of each cell's material in the scene's order."""
+    if len(problem.materials) == 1:
+        return np.zeros(n_owned, dtype=np.int64)
+    from fenics_plast.build import cell_regions
+    regions = cell_regions(cell_tags, groups, n_owned)
+    out = np.full(n_owned, -1, dtype=np.int64)
+    for i, spec in enumerate(problem.materials.values()):
+        for r in spec.regions:
+            out[regions[r]] = i
+    return out
+
+
+def thermal_coupling(problem, kin, u, qmap, cell_tags, facet_tags, groups) -> ThermalCoupling:
+    """The heat conduction of ``problem``'s body on ``kin``'s mesh, coupled to the mechanical solver's
+    displacement ``u`` (UFL) and quadrature state ``qmap``."""
+    mesh = kin.mesh
+    n_owned = mesh.topology.index_map(mesh.topology.dim).size_local
+    specs = list(problem.materials.values())
+    cell_material = _cell_material(problem, cell_tags, groups, n_owned)
+    DG0 = dc.function_space(mesh, "DG", 0)
+    cells = dc.cell_dofs(DG0).reshape(-1)[:n_owned]
+    rho_c, k = fem.Function(DG0, name="rho_c"), fem.Function(DG0, name="conductivity")
+    rho_c.x.array[cells] = np.array([m.density * m.specific_heat * J_PER_KG_K for m in specs])[cell_material]
+    k.x.array[cells] = np.array([m.conductivity for m in specs])[cell_material]
+    rho_c.x.scatter_forward()
+    k.x.scatter_forward()
+    boundaries = [(n, TYPES[b.type], b, groups[b.group][1]) for n, b in problem.thermal_boundary.items()]
+    heat = HeatConduction(kin, u, rho_c, k, problem.thermal.initial_temperature, boundaries, facet_tags)
+    plastic = PlasticHeat([(material_of(m), m.taylor_quinney) for m in specs], np.repeat(cell_material, qmap.nq),
+                          qmap.eqps)
+    return ThermalCoupling(heat, plastic, qmap, problem.analysis.duration)

@@ -1,0 +1,217 @@
+r"""Transient heat conduction in the deforming body (issue 37): the temperature T [K] as a continuous
+Q1 field on the body's mesh, a second unknown beside the displacement, advanced by one backward-Euler
+step after each converged mechanical increment (a staggered, isothermal split: the mechanics of an
+increment sees the temperature of the increment before, the heat step the converged deformation).
+
+>>> heat = HeatConduction(kin, u, rho_c, conductivity, T0, [(spec, facets), ...], facet_tags)
+>>> heat.advance(dt, plastic_heat)          # dt [s]; plastic_heat (owned points,) [mJ/mm^3]
+>>> heat.T, heat.heat_balance()             # the field; the accumulated heats [mJ]
+
+Written on the reference configuration X of the mesh for the current one x = X + u (F = I + Grad u,
+J = det F, the 3x3 kinematics of :class:`fenics_plast.kinematics.Kinematics`; w = 2 pi R in
+axisymmetry, 1 otherwise), for every test function v of the Q1 space:
+
+    int rho_c (T - T_n) v w dX  +  dt int k J (F^-T Grad T) . (F^-T Grad v) w dX
+        =  int q_p v w dX  +  dt sum_groups int (a + b T) v J |F^-T N| w dS
+
+rho_c [mJ/(mm^3 K)]: density x specific heat per REFERENCE volume (the mass of a reference volume is
+conserved); k [mW/(mm K)] (= W/(m K)); the conduction term is k grad_x T . grad_x v dv of the current
+body; q_p [mJ/mm^3 per reference volume]: the heat the step's plastic work released
+(:mod:`fenics_plast.thermal.plastic_heat`); a + b T [mW/mm^2]: the flux into the body of each
+thermal boundary (:mod:`fenics_plast.thermal.boundaries`) over the current area, Nanson's
+n da = J F^-T N dA. Prescribed temperatures are Dirichlet conditions. Backward Euler is first order
+in time and unconditionally stable; Q1 second order in space (measured: tests/test_heat_conduction.py).
+The linear system (symmetric positive definite) is solved by MUMPS LU, as the mechanics.
+
+The heat balance is accumulated step by step: ``stored`` = int rho_c (T - T_0) w dX, ``plastic`` =
+sum of int q_p w dX, and, per thermal boundary, the heat in through it: a flux boundary's
+dt int (a + b T) da, a prescribed temperature's the heat equation's reaction on its nodes (the
+residual of the unconstrained equations there). stored = plastic + sum of the boundaries' holds to
+the linear solver's tolerance, by construction of the scheme (the test functions sum to 1).
+
+Shapes: ``rho_c`` and ``conductivity`` are DG0 Functions (per cell); point arrays are the
+:class:`fenics_plast.quadrature.QuadratureMap` layout (owned cells x nq).
+"""
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from dolfinx import fem
+import dolfinx.fem.petsc as fpetsc
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from fenics_plast import dolfinx_compat as dc
+
+__all__ = ["HeatConduction"]
+
+
+class HeatConduction:
+    """The temperature field of one body and its backward-Euler step (module docstring).
+
+    kin : :class:`fenics_plast.kinematics.Kinematics` of the mesh (geometry, weight, quadrature).
+    u : the displacement [mm] as UFL (the mechanical solver's; the current configuration).
+    rho_c, conductivity : DG0 Functions [mJ/(mm^3 K)], [mW/(mm K)].
+    initial_temperature : T at t = 0 [K], uniform.
+    boundaries : [(name, ThermalBoundaryType, spec, tag)]: each thermal boundary, its type
+        (:data:`fenics_plast.thermal.boundaries.TYPES`), its scene table and its facet tag.
+    facet_tags : the mesh's facet tags.
+    """
+
+    def __init__(self, kin, u, rho_c, conductivity, initial_temperature: float, boundaries, facet_tags):
+        mesh = kin.mesh
+        self.mesh, self.comm = mesh, mesh.comm
+        self.V = dc.function_space(mesh, "Lagrange", 1)
+        self.T = fem.Function(self.V, name="temperature")
+        self.T_n = fem.Function(self.V, name="temperature_n")
+        self.T_initial = float(initial_temperature)
+        self.T.x.array[:] = self.T_initial
+        self.T_n.x.array[:] = self.T_initial
+        self.dt = fem.Constant(mesh, PETSc.ScalarType(0.0))
+        self.plastic_heat = fem.Function(dc.quadrature_space(mesh, kin.degree, ()), name="plastic_heat")
+        qdofs = np.asarray(dc.cell_dofs(self.plastic_heat.function_space))
+        n_owned = mesh.topology.index_map(mesh.topology.dim).size_local
+        self._qdofs = qdofs[:n_owned].reshape(-1)          # the owned points' entries, point order
+
+        w, dx = kin.weight, kin.dx
+        F = kin.F(u)
+        J = ufl.det(F)
+        Finv_T = ufl.inv(F).T
+        self.dx, self.current_volume = dx, J * w      # dv = current_volume dx (reference measure)
+        T, v = ufl.TrialFunction(self.V), ufl.TestFunction(self.V)
+
+        def grad3(f):
+            g = ufl.grad(f)
+            return g if kin.three_d else ufl.as_vector([g[0], g[1], 0.0])
+
+        def current(g):
+            return ufl.dot(Finv_T, g)
+
+        N = ufl.FacetNormal(mesh)
+        N3 = N if kin.three_d else ufl.as_vector([N[0], N[1], 0.0])
+        da = J * ufl.sqrt(ufl.dot(current(N3), current(N3))) * w       # current area per reference dS
+        ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags, metadata=kin.metadata)
+
+        a = (rho_c * T * v * w * dx
+             + self.dt * conductivity * J * ufl.dot(current(grad3(T)), current(grad3(v))) * w * dx)
+        L = rho_c * self.T_n * v * w * dx + self.plastic_heat * v * w * dx
+        residual = (rho_c * (self.T - self.T_n) * v * w * dx - self.plastic_heat * v * w * dx
+                    + self.dt * conductivity * J * ufl.dot(current(grad3(self.T)), current(grad3(v))) * w * dx)
+        self.names = []
+        self.bcs, self._bc_dofs, self._flux_forms = [], {}, {}
+        fdim = mesh.topology.dim - 1
+        for name, kind, spec, tag in boundaries:
+            self.names.append(name)
+            facets = facet_tags.find(tag)
+            if kind.dirichlet:
+                dofs = fem.locate_dofs_topological(self.V, fdim, facets)
+                self.bcs.append(fem.dirichletbc(PETSc.ScalarType(spec.temperature), dofs, self.V))
+                owned = self.V.dofmap.index_map.size_local
+                taken = np.concatenate([d for d in self._bc_dofs.values()] or [np.zeros(0, dtype=np.int32)])
+                self._bc_dofs[name] = np.setdiff1d(dofs[dofs < owned], taken)   # a shared node: the first
+                continue
+            coefficient, slope = kind.flux_terms(spec, self.T_n)
+            a = a - self.dt * slope * T * v * da * ds(tag)
+            L = L + self.dt * coefficient * v * da * ds(tag)
+            residual = residual - self.dt * (coefficient + slope * self.T) * v * da * ds(tag)
+            self._flux_forms[name] = fem.form(self.dt * (coefficient + slope * self.T) * da * ds(tag))
+        self.a_form, self.L_form = fem.form(a), fem.form(L)
+        self.residual_form = fem.form(residual)
+        self.stored_form = fem.form(rho_c * (self.T - self.T_initial) * w * dx)
+        #: the body's heat capacity int rho_c dV [mJ/K]
+        self.capacity = self.comm.allreduce(fem.assemble_scalar(fem.form(rho_c * w * dx)), op=MPI.SUM)
+        self.plastic_form = fem.form(self.plastic_heat * w * dx)
+        self.A = fpetsc.create_matrix(self.a_form)
+        self.b = fpetsc.create_vector(self.L_form)
+        self.r = fpetsc.create_vector(self.residual_form)
+        self.ksp = PETSc.KSP().create(self.comm)
+        self.ksp.setOperators(self.A)
+        self.ksp.setType("preonly")
+        pc = self.ksp.getPC()
+        pc.setType("lu")
+        pc.setFactorSolverType("mumps")
+        self.heat = dict(plastic=0.0, **{n: 0.0 for n in self.names})
+        self.steps = 0
+
+    # -- the step --------------------------------------------------------------------------------
+    def advance(self, dt: float, plastic_heat: np.ndarray | None = None) -> None:
+        """One backward-Euler step of ``dt`` [s] from the present T, the deformation as it stands,
+        with ``plastic_heat`` (owned points,) [mJ/mm^3 per reference volume] released over the step
+        (None: none). Collective."""
+        self.T_n.x.array[:] = self.T.x.array
+        self.dt.value = float(dt)
+        q = self.plastic_heat.x.array
+        q[:] = 0.0
+        if plastic_heat is not None:
+            q[self._qdofs] = plastic_heat
+        self.plastic_heat.x.scatter_forward()
+        self.A.zeroEntries()
+        fpetsc.assemble_matrix(self.A, self.a_form, bcs=self.bcs)
+        self.A.assemble()
+        with self.b.localForm() as loc:
+            loc.set(0.0)
+        fpetsc.assemble_vector(self.b, self.L_form)
+        dc.apply_lifting(self.b, [self.a_form], [self.bcs])
+        self.b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        fpetsc.set_bc(self.b, self.bcs)
+        x = dc.petsc_vec(self.T)
+        self.ksp.solve(self.b, x)
+        if self.ksp.getConvergedReason() < 0:
+            raise RuntimeError(f"heat conduction: the linear solve failed (KSP reason {self.ksp.getConvergedReason()})")
+        self.T.x.scatter_forward()
+        self._account()
+        self.steps += 1
+
+    def _account(self) -> None:
+        """Add the step's heats to :attr:`heat` (collective)."""
+        def total(form):
+            return self.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
+        self.heat["plastic"] += total(self.plastic_form)
+        for name, form in self._flux_forms.items():
+            self.heat[name] += total(form)
+        if self._bc_dofs:
+            with self.r.localForm() as loc:
+                loc.set(0.0)
+            fpetsc.assemble_vector(self.r, self.residual_form)
+            self.r.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            r = self.r.getArray(readonly=True)
+            for name, dofs in self._bc_dofs.items():
+                self.heat[name] += self.comm.allreduce(float(r[dofs].sum()), op=MPI.SUM)
+
+    # -- what it reports -------------------------------------------------------------------------
+    def heat_balance(self) -> dict:
+        """The heats since t = 0 [mJ]: ``stored`` (int rho_c (T - T_0) dV), ``plastic``, each boundary's
+        (by name, into the body), ``boundaries`` (their sum) and ``balance_error`` = |stored - plastic -
+        boundaries| over the largest of them, 0 while they are all below the heat of 1e-9 K over the
+        body (collective)."""
+        stored = self.comm.allreduce(fem.assemble_scalar(self.stored_form), op=MPI.SUM)
+        out = dict(stored=stored, **self.heat)
+        out["boundaries"] = sum(self.heat[n] for n in self.names)
+        scale = max(abs(stored), abs(out["plastic"]), abs(out["boundaries"]))
+        # (no heat yet: what round-off leaves of 0, against the heat of 1e-9 K over the body, is no error)
+        out["balance_error"] = (abs(stored - out["plastic"] - out["boundaries"]) / scale
+                                if scale > 1e-9 * self.capacity else 0.0)
+        return out
+
+    # -- restart -----------------------------------------------------------------------------------
+    def state_dict(self, keys) -> dict:
+        """What a resumed run needs (collective): T's owned values keyed by ``keys`` (the checkpoint's
+        dof keys of :attr:`V`) and the accumulated heats."""
+        from fenics_plast.checkpoint import owned_keyed
+        return dict(temperature=owned_keyed(self.T, keys), heat=dict(self.heat), heat_steps=self.steps)
+
+    def load_state(self, d, keys) -> None:
+        """Restore :meth:`state_dict`'s values, matched to this mesh's numbering by ``keys`` (the dof keys
+        of :attr:`V`; collective: CheckpointError on every rank when the checkpoint is of another mesh)."""
+        from fenics_plast import checkpoint as ck
+        n = self.V.dofmap.index_map.size_local
+        why, values = None, None
+        try:
+            values = d["temperature"].take(keys[:n])
+        except ck.CheckpointError as e:
+            why = str(e)
+        ck.raise_on_any(self.comm, why)
+        ck.set_owned(self.T, values)
+        self.T_n.x.array[:] = self.T.x.array
+        self.heat.update(d["heat"])
+        self.steps = int(d["heat_steps"])

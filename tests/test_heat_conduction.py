@@ -1,0 +1,216 @@
+"""Heat conduction coupled to the deformation (issue 37, static analyses): fenics_plast/thermal/.
+
+1. Conduction against closed forms (Carslaw & Jaeger), steel k 50 W/(m K), rho 7850 kg/m^3, c 500 J/(kg K):
+   * a semi-infinite body whose surface is brought from 293 to 393 K at t = 0
+     (tests/scenes/heat_bar.toml: 0.5 mm cells, 20 steps of 0.05 s): the temperature at 1 s within 1 %
+     of (393 - 293) of the erfc profile at every node (measured 0.68 %), the heat in through the surface
+     within 1 % of 2 k dT sqrt(t / (pi alpha)) per area (measured -0.58 %); observed orders: in time 1.00
+     (backward Euler; 320 cells, 25 / 50 / 100 steps), in space 2.0 (Q1; 20 / 40 / 80 cells against 320
+     at the same 25 steps, which takes the time error out);
+   * a slab cooling by convection, Biot 1 (tests/scenes/heat_slab.toml: 0.5 mm cells, 50 steps of 0.1 s):
+     within 1 % of the series solution at 5 s (measured 0.15 %);
+   * the heat balance: stored = through the boundaries to 1e-10 (prescribed temperature: its reaction;
+     convection: its flux).
+2. Heating by plastic work: a cylinder upset 30 %, frictionless, insulated (tests/scenes/heat_compression.toml):
+   uniform temperature, stored heat = beta x the package's own plastic dissipation (the static energies'
+   integral of the flow stress over eqps) to 1e-9, and Delta T = beta (sigma_0 eqps + H eqps^2 / 2) / (rho c)
+   to 1e-6 with the run's eqps.
+3. Serial = 2 ranks; a run killed after its 2nd checkpoint and resumed ends as the uninterrupted one.
+4. Scene rules: [thermal] needs analysis.duration and the materials' thermal keys; refused with
+   Johnson-Cook hardening, with [remeshing] and in explicit analyses; thermal keys without [thermal]
+   refused; a scene without [thermal] assembles no heat equation.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from fenics_plast.errors import SceneError
+from fenics_plast.problem import load_problem, parse_problem
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from scene_runs import history, needs_mpirun, run_scene  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENES = ROOT / "tests" / "scenes"
+COMM = MPI.COMM_WORLD
+K, RHO, C = 50.0, 7850e-12, 500.0 * 1e6            # mW/(mm K), tonne/mm^3, mJ/(tonne K)
+ALPHA = K / (RHO * C)                                # mm^2/s
+
+
+def heat_run(scene, *sets):
+    """The scene built and run in this process to t = 1, a heat step after each increment; the build."""
+    from fenics_plast.runner_static import build_static
+    p = load_problem(scene, list(sets))
+    b = build_static(p, COMM)
+    a = p.analysis
+    b.solver.run(increments=a.increments, min_increment=a.min_increment, max_increment=a.max_increment,
+                 lam_end=1.0, callback=lambda s: (b.thermal.after_increment(s.lam_converged), False)[1])
+    assert b.solver.lam_converged == pytest.approx(1.0)
+    return b
+
+
+def nodal(b):
+    """(y of the owned nodes, their temperatures)."""
+    h = b.thermal.heat
+    n = h.V.dofmap.index_map.size_local
+    return h.V.tabulate_dof_coordinates()[:n, 1], h.T.x.array[:n].copy()
+
+
+def bar(cells, steps):
+    return heat_run(SCENES / "heat_bar.toml", f"mesh.parameters.cells_axial={cells}",
+                    f"analysis.increments={steps}", f"analysis.max_increment={1.0 / steps}")
+
+
+def erfc_error(b, t=1.0):
+    from scipy.special import erfc
+    y, T = nodal(b)
+    exact = 293.0 + 100.0 * erfc(y / (2.0 * math.sqrt(ALPHA * t)))
+    return COMM.allreduce(float(np.abs(T - exact).max()), op=MPI.MAX) / 100.0
+
+
+def test_semi_infinite_body_against_erfc():
+    b = heat_run(SCENES / "heat_bar.toml")
+    error = erfc_error(b)
+    heat = b.thermal.heat.heat_balance()
+    q_exact = 2.0 * K * 100.0 * math.sqrt(1.0 / (math.pi * ALPHA)) * 1.0     # mJ through the 1 mm^2 end
+    print(f"\nerfc at 1 s, 80 cells, 20 steps: max error {error:.3e} of dT; heat {heat['hot_end']:.6g} mJ "
+          f"against {q_exact:.6g} ({heat['hot_end'] / q_exact - 1:+.2e})")
+    assert error < 0.01
+    assert abs(heat["hot_end"] / q_exact - 1.0) < 0.01
+    assert heat["balance_error"] < 1e-10 and heat["plastic"] == 0.0
+
+
+def test_conduction_orders_in_time_and_space():
+    time_errors = [erfc_error(bar(320, n)) for n in (25, 50, 100)]
+    time_order = np.log2(np.array(time_errors[:-1]) / time_errors[1:])
+    fine = {round(v, 9): T for v, T in zip(*nodal(bar(320, 25)))}
+    space_errors = []
+    for cells in (20, 40, 80):
+        y, T = nodal(bar(cells, 25))
+        ref = np.array([fine[round(v, 9)] for v in y])            # nested meshes: the coarse nodes are fine nodes
+        space_errors.append(COMM.allreduce(float(np.abs(T - ref).max()), op=MPI.MAX))
+    space_order = np.log2(np.array(space_errors[:-1]) / space_errors[1:])
+    print(f"\ntime errors {time_errors} orders {time_order}; space errors {space_errors} orders {space_order}")
+    assert np.all(np.abs(time_order - 1.0) < 0.1), time_order
+    assert np.all(np.abs(space_order - 2.0) < 0.2), space_order
+
+
+def slab_series(y, L, biot, fourier, terms=60):
+    """(T - T_a) / (T_0 - T_a) of a slab of half-thickness L cooling by convection (Carslaw & Jaeger 3.11)."""
+    from scipy.optimize import brentq
+    out = np.zeros_like(y)
+    for k in range(terms):
+        z = brentq(lambda z: z * math.tan(z) - biot, k * math.pi + 1e-12, k * math.pi + math.pi / 2 - 1e-12)
+        out += 4.0 * math.sin(z) / (2.0 * z + math.sin(2.0 * z)) * math.exp(-z * z * fourier) * np.cos(z * y / L)
+    return out
+
+
+def test_slab_cooling_by_convection():
+    b = heat_run(SCENES / "heat_slab.toml")
+    y, T = nodal(b)
+    L, t = 10.0, 5.0
+    exact = 293.0 + 1000.0 * slab_series(y, L, 5.0 * L / K, ALPHA * t / L ** 2)     # h = 5 mW/(mm^2 K)
+    error = COMM.allreduce(float(np.abs(T - exact).max()), op=MPI.MAX) / 1000.0
+    heat = b.thermal.heat.heat_balance()
+    print(f"\nslab, Biot 1, Fo {ALPHA * t / L ** 2:.3f}: max error {error:.3e} of dT; heat out {heat['air']:.6g} mJ")
+    assert error < 0.01
+    assert heat["balance_error"] < 1e-10 and heat["air"] < 0.0
+
+
+def test_plastic_work_heats_the_body(tmp_path):
+    s = run_scene(SCENES / "heat_compression.toml", tmp_path / "hc")
+    rho_c = RHO * C
+    dT = s["mean_T_K"] - 293.0
+    print(f"\nupset 30 %: dT {dT:.9g} K (max {s['max_T_K'] - 293.0:.9g}, min {s['min_T_K'] - 293.0:.9g}), "
+          f"stored {s['stored_heat_J']:.9g} J, beta x dissipation {0.9 * s['plastic_dissipation_from_eqps_J']:.9g} J")
+    assert s["max_T_K"] - s["min_T_K"] < 1e-9 * dT                  # homogeneous
+    assert s["stored_heat_J"] == pytest.approx(0.9 * s["plastic_dissipation_from_eqps_J"], rel=1e-9)
+    assert s["plastic_heat_J"] == pytest.approx(s["stored_heat_J"], rel=1e-9) and s["boundary_heat_J"] == 0.0
+    e = s["max_eqps"]
+    assert dT == pytest.approx(0.9 * (300.0 * e + 0.5 * 300.0 * e * e) / rho_c, rel=1e-6)
+    h = history(tmp_path / "hc")
+    assert h["time_s"][-1] == pytest.approx(2.0) and np.all(np.diff(h["mean_T_K"]) > 0.0)
+
+
+@needs_mpirun
+def test_serial_equals_two_ranks(tmp_path):
+    one = run_scene(SCENES / "heat_compression.toml", tmp_path / "one", "mesh.parameters.cells_axial=8",
+                    "thermal_boundary.top.group=top", "thermal_boundary.top.type=convection",
+                    "thermal_boundary.top.film_coefficient=2000", "thermal_boundary.top.ambient_temperature=293")
+    two = run_scene(SCENES / "heat_compression.toml", tmp_path / "two", "mesh.parameters.cells_axial=8",
+                    "thermal_boundary.top.group=top", "thermal_boundary.top.type=convection",
+                    "thermal_boundary.top.film_coefficient=2000", "thermal_boundary.top.ambient_temperature=293",
+                    np_ranks=2)
+    for k in ("max_T_K", "min_T_K", "mean_T_K", "stored_heat_J", "plastic_heat_J", "boundary_heat_J"):
+        assert two[k] == pytest.approx(one[k], rel=1e-9, abs=1e-12), k
+    assert one["max_T_K"] - one["min_T_K"] > 1.0          # the top face cools: not homogeneous
+
+
+def test_kill_and_resume(tmp_path):
+    sets = ["output.checkpoint_every=3", "thermal_boundary.top.group=top", "thermal_boundary.top.type=radiation",
+            "thermal_boundary.top.emissivity=0.8", "thermal_boundary.top.ambient_temperature=293"]
+    whole = run_scene(SCENES / "heat_compression.toml", tmp_path / "whole", *sets)
+    scene = [sys.executable, "-m", "fenics_plast.cli", "run", str(SCENES / "heat_compression.toml")]
+    scene += [a for s in sets for a in ("--set", s)]
+    env = dict(os.environ, FENICS_PLAST_PROGRESS="off")
+    r = subprocess.run(scene + ["--out", str(tmp_path / "run")], capture_output=True, text=True, cwd=ROOT,
+                       env=dict(env, FENICS_PLAST_KILL_AFTER_CHECKPOINTS="2"), timeout=300)
+    assert r.returncode == 137, r.stdout[-2000:] + r.stderr[-2000:]
+    r = subprocess.run(scene + ["--resume", str(tmp_path / "run")], capture_output=True, text=True, cwd=ROOT,
+                       env=env, timeout=300)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    resumed = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert resumed["resumed_from_checkpoint"] == 6
+    for k in ("max_T_K", "min_T_K", "mean_T_K", "stored_heat_J", "plastic_heat_J", "boundary_heat_J"):
+        assert resumed[k] == pytest.approx(whole[k], rel=1e-12), k
+    assert whole["boundary_heat_J"] < 0.0                   # the top face radiates
+
+
+# --- scene rules -------------------------------------------------------------------------------------
+
+BASE = (SCENES / "heat_compression.toml").read_text().replace('"../../meshes/', f'"{ROOT}/meshes/')
+
+
+@pytest.mark.parametrize("edit, key", [
+    (lambda t: t.replace("duration = 2.0", ""), "analysis.duration"),
+    (lambda t: t.replace("conductivity = 50.0", ""), "materials.steel.conductivity"),
+    (lambda t: t.replace("specific_heat = 500.0", ""), "materials.steel.specific_heat"),
+    (lambda t: t.replace("density = 7850.0", ""), "materials.steel.density"),
+    (lambda t: t.replace("[thermal]\ninitial_temperature = 293.0", ""), "materials.steel.conductivity"),
+    (lambda t: t + '\n[thermal_boundary.x]\ngroup = "top"\ntype = "sauna"\n', "thermal_boundary.x.type"),
+    (lambda t: t + '\n[thermal_boundary.x]\ngroup = "top"\ntype = "convection"\nambient_temperature = 293.0\n',
+     "thermal_boundary.x.film_coefficient"),
+    (lambda t: t + '\n[remeshing]\nsize = 1.0\n', "[remeshing]"),
+    (lambda t: t.replace('law = "linear"\nyield_stress = 300.0\nmodulus = 300.0',
+                         'law = "johnson_cook"\nA = 300.0\nB = 300.0\nn = 0.5\nC = 0.01\nm = 1.0\n'
+                         'melting_temperature = 1800.0\nroom_temperature = 293.0\nspecific_heat = 500.0'),
+     "johnson_cook"),
+])
+def test_scene_rules(edit, key):
+    with pytest.raises(SceneError, match=key.replace("[", r"\[").replace("]", r"\]")):
+        parse_problem(edit(BASE), ROOT / "tests" / "scenes" / "x.toml")
+
+
+def test_explicit_refuses_thermal():
+    text = (ROOT / "demos" / "taylor_bar.toml").read_text() + "\n[thermal]\ninitial_temperature = 293.0\n"
+    with pytest.raises(SceneError, match=r"\[thermal\] is only for static"):
+        parse_problem(text, ROOT / "demos" / "x.toml")
+
+
+def test_no_thermal_no_heat_equation():
+    from fenics_plast.runner_static import build_static
+    p = load_problem(ROOT / "docs" / "tutorial" / "billet.toml", ["analysis.increments=1"])
+    assert p.thermal is None and "heat conduction" not in p.active_physics
+    b = build_static(p, COMM)
+    assert b.thermal is None and b.body.heat is None
+    p = load_problem(SCENES / "heat_compression.toml")
+    assert "heat conduction" in p.active_physics
