@@ -396,6 +396,8 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
             w_p = energy.plastic_from_state()
             if w_p is not None:
                 res["plastic_dissipation_from_eqps_J"] = w_p * 1e-3
+        if run.b.thermal is not None:
+            res.update(heat_steps=run.b.thermal.heat.steps, heat_time_s=run.b.thermal.heat.time)
         if remesher is not None:
             from fenics_plast.remeshing.quality import deformed_nodes
             last = remesher.volumes(run.b.mesh, deformed_nodes(s.displacement_function()), s.qmap.degree,

@@ -34,6 +34,8 @@ Shapes: ``rho_c`` and ``conductivity`` are DG0 Functions (per cell); point array
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import ufl
 from dolfinx import fem
@@ -132,12 +134,14 @@ class HeatConduction:
         pc.setFactorSolverType("mumps")
         self.heat = dict(plastic=0.0, **{n: 0.0 for n in self.names})
         self.steps = 0
+        self.time = 0.0             # wall time in the steps (assembly, solve, the balance) [s]
 
     # -- the step --------------------------------------------------------------------------------
     def advance(self, dt: float, plastic_heat: np.ndarray | None = None) -> None:
         """One backward-Euler step of ``dt`` [s] from the present T, the deformation as it stands,
         with ``plastic_heat`` (owned points,) [mJ/mm^3 per reference volume] released over the step
         (None: none). Collective."""
+        start = time.perf_counter()
         self.T_n.x.array[:] = self.T.x.array
         self.dt.value = float(dt)
         q = self.plastic_heat.x.array
@@ -161,6 +165,7 @@ class HeatConduction:
         self.T.x.scatter_forward()
         self._account()
         self.steps += 1
+        self.time += time.perf_counter() - start
 
     def _account(self) -> None:
         """Add the step's heats to :attr:`heat` (collective)."""
