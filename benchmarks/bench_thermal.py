@@ -66,7 +66,8 @@ def main() -> None:
         print(line, flush=True)
     t_iso = statistics.median(r["solve_time_s"] for r in results["isothermal"])
     t_th = statistics.median(r["solve_time_s"] for r in results["thermal"])
-    print(f"thermal / isothermal: {t_th / t_iso:.3f} ({results['thermal'][0]['cells']} cells, {a.increments} increments)")
+    cells = results["thermal"][0]["cells"]
+    print(f"thermal / isothermal: {t_th / t_iso:.3f} ({cells} cells, {a.increments} increments)")
     for key in ("max_eqps", "newton_iterations"):
         print(f"{key}: isothermal {results['isothermal'][0][key]!r}, thermal {results['thermal'][0][key]!r}")
     s = results["thermal"][0]

@@ -171,7 +171,8 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None, since=0
     up and ready to ``run``: a namespace of ``solver``, ``material``, ``tools``, ``contact`` (the
     contact set or None), ``pairs``, ``contact_pairs`` (name -> :class:`fenics_plast.build.ContactPair`:
     depth, default penalty), ``thermal`` (the heat conduction's
-    :class:`fenics_plast.thermal.build.ThermalCoupling`, None without [thermal]), ``reactions`` ((group, component) -> dofs), ``body``
+    :class:`fenics_plast.thermal.build.ThermalCoupling`, None without [thermal]), ``reactions``
+    ((group, component) -> dofs), ``body``
     (:class:`Body`, on the collapsed displacement space), ``positions()`` (current node positions),
     mesh, cell_tags, facet_tags, groups. ``log``, ``progress``: as for :class:`StaticSolver`. A mesh made
     by remeshing at load ``since``: prescribed displacements count from there, and the contact pairs keep
@@ -203,7 +204,7 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None, since=0
     thermal = None
     if problem.thermal is not None:
         from fenics_plast.thermal.build import thermal_coupling
-        thermal = thermal_coupling(problem, kin, s.u, s.qmap, ct, ft, groups)
+        thermal = thermal_coupling(problem, kin, s.u, s.qmap, material, ft, groups, Vc, pairs)
 
     def tool_translation(tool, t):
         return tools[tool].translation(t, use_ufl=False)
@@ -328,6 +329,8 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
 
     def make_callback(step_end):
         def on_increment(solver):
+            if run.b.thermal is not None:       # (before the commit: the friction's dissipation since the last)
+                run.b.thermal.after_increment(solver.lam_converged)
             contact = run.b.contact
             if contact is not None:
                 contact.commit()
@@ -335,8 +338,6 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
             t = solver.lam_converged
             if energy is not None:
                 energy.update()
-            if run.b.thermal is not None:
-                run.b.thermal.after_increment(t)
             output.history(increment=rec["increment"], time=t, **time_columns(t), **run.quantities.row(t),
                            newton_iterations=rec["iterations"], **remesh_columns())
             if abs(t - step_end) <= 1e-12 * max(1.0, step_end):

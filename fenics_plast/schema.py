@@ -30,7 +30,7 @@ from fenics_plast.scene_key import OPTIONAL, REQUIRED, Key, number_text
 from fenics_plast.state_variables import outputs as state_outputs
 from fenics_plast import meshed_tools
 from fenics_plast.tool_shapes import shapes as tool_shapes
-from fenics_plast.thermal.boundaries import TYPES as thermal_boundary_types
+from fenics_plast.thermal.boundaries import TYPES as thermal_boundary_types, W_M2
 
 __all__ = ["SCHEMA", "SECTIONS", "Key", "Table", "REQUIRED", "OPTIONAL", "COMPONENTS", "COMPONENTS_3D", "GEOMETRIES",
            "component_index", "component_names", "is_cell_count", "vector_size", "LAWS", "US", "M_S", "KG_M3",
@@ -153,6 +153,8 @@ def _tools_table() -> Table:
     keys.update(_gathered([(s.name, s.params) for s in shapes] + [(meshed_tools.SHAPE, meshed_tools.KEYS)], "shape"))
     keys["path"] = Key("path", OPTIONAL, "Translation: { t = [...], x = [...], y = [...] } (and z = [...] in 3-D; "
                        "piecewise linear; a missing component stays 0); absent = fixed.", "mm")
+    keys["temperature"] = Key("float", OPTIONAL, "With [thermal]: the tool's temperature, a rigid isothermal body "
+                              "(required by a contact pair with the tool and a conductance).", "K", lo=0.0)
     return Table(f"Rigid tools, analytic or meshed, one table per name, each moving along `path`. 2-D: {by_dim[2]}; "
                  f"3-D: {by_dim[3]}.",
                  collection=True, discriminator="shape", keys=keys)
@@ -371,6 +373,13 @@ SCHEMA: dict[str, Table] = {
                            "of the cells along the group.", "N/mm³", **_pos()),
             "tangential_penalty": Key("float", OPTIONAL, "Tangential (stick) penalty; absent = the normal "
                                       "penalty.", "N/mm³", **_pos()),
+            "conductance": Key("float", OPTIONAL, "With [thermal], a pair with a tool: the heat transfer coefficient "
+                               "h of the contact: the nodes in contact exchange q = h (T_tool - T) with the tool "
+                               "(tools.<tool>.temperature); absent: no heat crosses the contact.", "W/(m² K)",
+                               scale=W_M2, **_nonneg()),
+            "friction_heat_fraction": Key("float", 0.5, "With [thermal]: the share of the friction's dissipation "
+                                          "that heats the body (the rest goes into the tool).", "", lo=0.0,
+                                          lo_open=False, hi=1.0, hi_open=False),
         }),
     "steps": Table(
         "Static load steps, in order of `end`. Each ends at a pseudo-time where a converged state is "

@@ -398,11 +398,18 @@ def _remeshing_checks(t: dict[str, Any], v: _Validator, geometry: str):
 
 
 def _thermal_checks(t: dict[str, Any], v: _Validator):
-    """[thermal] and what it needs: physical time, each material's heat capacity and conductivity; not yet
-    with Johnson-Cook hardening (its adiabatic temperature state) or [remeshing] (the field is not carried
-    across a remesh yet). Thermal keys without [thermal] would be ignored: refused."""
+    """[thermal] and what it needs: physical time, each material's heat capacity and conductivity, the tool's
+    temperature of a pair with a conductance; not yet with Johnson-Cook hardening (its adiabatic temperature
+    state), [remeshing] (the field is not carried across a remesh yet) or heat between two facet groups of the
+    body. Thermal keys without [thermal] would be ignored: refused."""
     thermal = t.get("thermal")
     if thermal is None:
+        for n, c in t["contact"].items():
+            if c.conductance is not None:
+                v.fail(f"contact.{n}.conductance is given but there is no [thermal] table: it would be ignored")
+        for n, tool in t["tools"].items():
+            if tool.get("temperature") is not None:
+                v.fail(f"tools.{n}.temperature is given but there is no [thermal] table: it would be ignored")
         if t["thermal_boundary"]:
             v.fail(f"thermal_boundary.{next(iter(t['thermal_boundary']))}: thermal boundaries need a [thermal] table")
         for n, m in t["materials"].items():
@@ -421,6 +428,13 @@ def _thermal_checks(t: dict[str, Any], v: _Validator):
         if m.hardening is not None and m.hardening.law == "johnson_cook":
             v.fail(f"materials.{n}.hardening.law = 'johnson_cook' with [thermal]: not built yet (Johnson-Cook "
                    f"keeps its own adiabatic temperature at the points); use a strain-only law")
+    for n, c in t["contact"].items():
+        if c.get("master") is not None and (c.friction > 0.0 or c.conductance is not None):
+            v.fail(f"contact.{n}: heat between two facet groups of the body (friction or conductance with "
+                   f"[thermal]) is not built yet: contact.{n}.master with friction > 0 or a conductance")
+        if c.conductance is not None and c.get("tool") is not None and t["tools"][c.tool].get("temperature") is None:
+            v.fail(f"tools.{c.tool}.temperature is missing: required by contact.{n}.conductance (the tool's "
+                   f"temperature) [K]")
     if t.get("remeshing") is not None:
         v.fail("thermal: [thermal] with [remeshing] is not built yet (the temperature field is not carried "
                "across a remesh)")

@@ -15,10 +15,16 @@
    uniform temperature, stored heat = beta x the package's own plastic dissipation (the static energies'
    integral of the flow stress over eqps) to 1e-9, and Delta T = beta (sigma_0 eqps + H eqps^2 / 2) / (rho c)
    to 1e-6 with the run's eqps.
-3. Serial = 2 ranks; a run killed after its 2nd checkpoint and resumed ends as the uninterrupted one.
-4. Scene rules: [thermal] needs analysis.duration and the materials' thermal keys; refused with
-   Johnson-Cook hardening, with [remeshing] and in explicit analyses; thermal keys without [thermal]
-   refused; a scene without [thermal] assembles no heat equation.
+3. Contact with a rigid tool: a bar held at 393 K on one end, pressed onto a 293 K tool with a conductance
+   h equal to its own k / L (tests/scenes/heat_contact.toml): at steady state the contact face at 343 K
+   (measured 343.0021: the bar is 1e-4 shorter) and the heat into the tool 250 mW per mm^2 (to 1e-4); a
+   block slid 1 mm on a tool at Coulomb 0.3 (tests/scenes/sliding_block_on_tool.toml): friction heat in
+   the body half of mu F_N x 1 mm (measured -0.10 %, the stick's elastic slip and the first sliding
+   increment).
+4. Serial = 2 ranks; a run killed after its 2nd checkpoint and resumed ends as the uninterrupted one.
+5. Scene rules: [thermal] needs analysis.duration and the materials' thermal keys, a conductance its tool's
+   temperature; refused with Johnson-Cook hardening, with [remeshing] and in explicit analyses; thermal
+   keys without [thermal] refused; a scene without [thermal] assembles no heat equation.
 """
 from __future__ import annotations
 
@@ -141,6 +147,33 @@ def test_plastic_work_heats_the_body(tmp_path):
     assert h["time_s"][-1] == pytest.approx(2.0) and np.all(np.diff(h["mean_T_K"]) > 0.0)
 
 
+def test_contact_conductance_steady_state(tmp_path):
+    s = run_scene(SCENES / "heat_contact.toml", tmp_path / "hc")
+    q = 100.0 / (10.0 / K + 1.0 / 5.0)                      # mW/mm^2 through the 1 mm^2 section
+    print(f"\nconductance: contact face {s['min_T_K']:.6f} K against {293.0 + q / 5.0}, heat rate into the tool "
+          f"{s['anvil_heat_W']:.6f} W against {q * 1e-3}")
+    assert s["min_T_K"] == pytest.approx(293.0 + q / 5.0, rel=1e-4)
+    assert s["anvil_heat_W"] == pytest.approx(q * 1e-3, rel=1e-3)
+    assert s["heat_balance_error"] < 1e-10 and s["anvil_heat_J"] > 0.0
+
+
+SLIDE = ["analysis.duration=1", "thermal.initial_temperature=293", "outputs.heat.quantity=heat", "outputs.heat.heat=all",
+         'boundary.press.value=["1.0 * max(2 * t - 1, 0)", "-0.001 * min(2 * t, 1)"]', "output.plots=false",
+         "output.xdmf=false"] + [f"materials.{m}.{k}={v}" for m in ("base", "block")
+                                 for k, v in (("density", 7850), ("conductivity", 50), ("specific_heat", 500))]
+
+
+def test_friction_heats_the_body(tmp_path):
+    """The block of tests/scenes/sliding_block_on_tool.toml pressed, then slid 1 mm at Coulomb 0.3: the
+    friction's dissipation is mu F_N times the slide (its elastic stick is 1e-4 mm), half of it into the body."""
+    s = run_scene(SCENES / "sliding_block_on_tool.toml", tmp_path / "sb", *SLIDE)
+    dissipation = 0.3 * s["friction_y_kN"] * 1e3 * 1.0 * 1e-3           # J
+    print(f"\nfriction heat {s['friction_heat_J']:.6g} J against mu F_N slide / 2 = {dissipation / 2:.6g} J")
+    assert abs(s["friction_x_kN"]) == pytest.approx(0.3 * s["friction_y_kN"], rel=1e-6)      # sliding
+    assert s["friction_heat_J"] == pytest.approx(0.5 * dissipation, rel=2e-3)
+    assert s["stored_heat_J"] == pytest.approx(s["friction_heat_J"], rel=1e-9)
+
+
 @needs_mpirun
 def test_serial_equals_two_ranks(tmp_path):
     one = run_scene(SCENES / "heat_compression.toml", tmp_path / "one", "mesh.parameters.cells_axial=8",
@@ -190,6 +223,9 @@ BASE = (SCENES / "heat_compression.toml").read_text().replace('"../../meshes/', 
     (lambda t: t + '\n[thermal_boundary.x]\ngroup = "top"\ntype = "convection"\nambient_temperature = 293.0\n',
      "thermal_boundary.x.film_coefficient"),
     (lambda t: t + '\n[remeshing]\nsize = 1.0\n', "[remeshing]"),
+    (lambda t: t + '\n[tools.die]\nshape = "plane"\npoint = [0.0, 5.0]\nnormal = [0.0, -1.0]\n'
+     '[contact.die]\ntool = "die"\ngroup = "top"\nconductance = 1e4\n', "tools.die.temperature"),
+    (lambda t: t + '\n[outputs.q]\nquantity = "tool_heat"\ncontact = "nothing"\n', "outputs.q.contact"),
     (lambda t: t.replace('law = "linear"\nyield_stress = 300.0\nmodulus = 300.0',
                          'law = "johnson_cook"\nA = 300.0\nB = 300.0\nn = 0.5\nC = 0.01\nm = 1.0\n'
                          'melting_temperature = 1800.0\nroom_temperature = 293.0\nspecific_heat = 500.0'),
@@ -198,6 +234,12 @@ BASE = (SCENES / "heat_compression.toml").read_text().replace('"../../meshes/', 
 def test_scene_rules(edit, key):
     with pytest.raises(SceneError, match=key.replace("[", r"\[").replace("]", r"\]")):
         parse_problem(edit(BASE), ROOT / "tests" / "scenes" / "x.toml")
+
+
+def test_contact_heat_keys_need_thermal():
+    text = (SCENES / "heat_contact.toml").read_text().replace("[thermal]\ninitial_temperature = 293.0", "")
+    with pytest.raises(SceneError, match=r"contact.anvil.conductance is given but there is no \[thermal\]"):
+        parse_problem(text, SCENES / "x.toml")
 
 
 def test_explicit_refuses_thermal():

@@ -157,6 +157,7 @@ class ToolContactTerm:
         self.g, self.N, self.dN = np.zeros(n), np.zeros((n, d)), np.zeros((n, d, d))
         self.f, self.K, self.t = np.zeros((n, d)), np.zeros((n, d, d)), np.zeros((n, d))
         self.p, self.slip = np.zeros(n), np.zeros(n)
+        self.s = np.zeros((n, d))               # the slip since the last commit [mm]
         self._rows = None                       # the nodes' global equations, built at the first residual
 
     # -- the state ------------------------------------------------------------------------------
@@ -173,9 +174,9 @@ class ToolContactTerm:
             self.g[:], self.N[:], self.dN[:] = self.tool.nodal_gap(x, s.lam)
         else:
             analytic_geometry(self.kind, self.params, x, d, self.g, self.N, self.dN)
-        slip = u - self.u_c - (d - self._translation(self.contact.lam_c.value))
+        self.s[:] = u - self.u_c - (d - self._translation(self.contact.lam_c.value))
         h = self.hist
-        node_forces(self.g, self.N, self.dN, slip, h.t_n, h.N_n, h.p_n, self.area, self.penalty,
+        node_forces(self.g, self.N, self.dN, self.s, h.t_n, h.N_n, h.p_n, self.area, self.penalty,
                     self.tangential_penalty, self.friction, self._law, self.f, self.K, self.t, self.p, self.slip)
 
     def commit(self):
@@ -245,6 +246,20 @@ class ToolContactTerm:
         self.evaluate()
         return ContactNodes(self.X + self.solver.w.x.array[self.idx], self.g.copy(), self.p.copy(), self.area,
                             self.blocks, (self.g < 0.0) & (self.slip > 0.0))
+
+    def friction_dissipation(self):
+        """The friction's dissipation at each owned node (in :meth:`contact_nodes`' order) since the last commit
+        [N mm] (n,), >= 0: the work of the tangential traction t against the irreversible part of the slip s,
+        -A t . (s + (t - t_n) / eps_T) (t is in the tangent plane, so the projections drop out): the elastic
+        part of the slip, -(t - t_n) / eps_T, stores and gives back; a stuck node dissipates nothing, a
+        slipping one (b |q| - b^2) / eps_T per area (module contact_law's notation). Call it before the commit.
+        Zero without friction."""
+        self.evaluate()
+        if self.friction <= 0.0:
+            return np.zeros(len(self.X))
+        t = self.t
+        return -self.area * ((t * self.s).sum(axis=1) + ((t * t).sum(axis=1) - (t * self.hist.t_n).sum(axis=1))
+                             / self.tangential_penalty)
 
     def nodal_gaps(self):
         """Gaps [mm] at the owned nodes of the pair's facets (current state), numpy (n,)."""

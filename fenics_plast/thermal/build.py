@@ -1,7 +1,7 @@
 """A scene's ``[thermal]``, ``[thermal_boundary.<name>]`` and materials' thermal keys turned into the
 heat conduction of a body and its coupling to the mechanical increments (issue 37).
 
->>> coupling = thermal_coupling(problem, kin, u, qmap, material, cell_tags, facet_tags, groups)
+>>> coupling = thermal_coupling(problem, kin, u, qmap, material, facet_tags, groups)
 >>> coupling.after_increment(t)     # t: the converged pseudo-time; one heat step over (t - t_last) duration
 
 The coupling is staggered (isothermal split): each converged mechanical increment from t_last to t
@@ -17,7 +17,6 @@ import numpy as np
 from dolfinx import fem
 
 from fenics_plast import dolfinx_compat as dc
-from fenics_plast.build import material_of
 from fenics_plast.thermal.boundaries import TYPES
 from fenics_plast.thermal.heat import HeatConduction
 from fenics_plast.thermal.plastic_heat import PlasticHeat
@@ -29,18 +28,36 @@ J_PER_KG_K = 1e6
 
 
 class ThermalCoupling:
-    """The heat conduction of a body (``heat``) and what feeds it after each converged increment: the
-    plastic heat of the increment (``plastic``) over the physical time (pseudo-time x ``duration`` [s])."""
+    """The heat conduction of a body (``heat``) and what feeds it after each converged increment, over the
+    physical time (pseudo-time x ``duration`` [s]): the plastic heat of the increment (``plastic``), and for
+    each contact pair with a tool (``contacts``: [(name, pair, friction_heat_fraction)], the pairs of
+    :func:`fenics_plast.runner_static.add_contact`) which nodes touch the tool (the conductance's chi) and the
+    share of the friction's dissipation that heats the body. ``node_dofs``: the temperature dof of each
+    node (block) of the displacement's CG1 space."""
 
-    def __init__(self, heat: HeatConduction, plastic: PlasticHeat, qmap, duration: float):
+    def __init__(self, heat: HeatConduction, plastic: PlasticHeat, qmap, duration: float, contacts=(),
+                 node_dofs=None):
         self.heat, self.plastic, self.qmap = heat, plastic, qmap
         self.duration = float(duration)
+        self.contacts, self.node_dofs = list(contacts), node_dofs
         self.t_last = 0.0
 
     def after_increment(self, t: float) -> None:
-        """One heat step from the last converged pseudo-time to ``t`` (collective)."""
+        """One heat step from the last converged pseudo-time to ``t`` (collective). Before the contact's
+        commit: the friction's dissipation is that since the last commit."""
         q = self.plastic.step(self.qmap.eqps)
-        self.heat.advance((t - self.t_last) * self.duration, q)
+        friction = np.zeros(self.heat.V.dofmap.index_map.size_local) if self.contacts else None
+        for name, pair, fraction in self.contacts:
+            nodes = pair.contact_nodes()
+            dofs = self.node_dofs[nodes.nodes]
+            chi = self.heat.in_contact.get(name)
+            if chi is not None:
+                chi.x.array[:] = 0.0
+                chi.x.array[dofs] = (nodes.g < 0.0).astype(float)
+                chi.x.scatter_forward()
+            if pair.friction > 0.0:
+                np.add.at(friction, dofs, fraction * pair.friction_dissipation())
+        self.heat.advance((t - self.t_last) * self.duration, q, friction)
         self.t_last = float(t)
 
     def state_dict(self) -> dict:
@@ -73,26 +90,24 @@ class ThermalCoupling:
         return dof_keys(self.heat.V), qp_keys(mesh, n_owned, self.qmap.nq)
 
 
-def _cell_material(problem, cell_tags, groups, n_owned) -> np.ndarray:
-    """(owned cells,) the index of each cell's material in the scene's order."""
-    if len(problem.materials) == 1:
-        return np.zeros(n_owned, dtype=np.int64)
-    from fenics_plast.build import cell_regions
-    regions = cell_regions(cell_tags, groups, n_owned)
-    out = np.full(n_owned, -1, dtype=np.int64)
-    for i, spec in enumerate(problem.materials.values()):
-        for r in spec.regions:
-            out[regions[r]] = i
+def node_dofs(V_nodes, V) -> np.ndarray:
+    """The dof of ``V`` (scalar CG1) at each node (block, owned and ghost) of ``V_nodes`` (CG1 on the same
+    mesh, e.g. the displacement's), through the cells' dofs: (blocks of V_nodes,) local indices of V."""
+    out = np.full(V_nodes.dofmap.index_map.size_local + V_nodes.dofmap.index_map.num_ghosts, -1, dtype=np.int64)
+    out[dc.cell_dofs(V_nodes).reshape(-1)] = dc.cell_dofs(V).reshape(-1)
     return out
 
 
-def thermal_coupling(problem, kin, u, qmap, cell_tags, facet_tags, groups) -> ThermalCoupling:
+def thermal_coupling(problem, kin, u, qmap, material, facet_tags, groups, Vc=None, pairs=None) -> ThermalCoupling:
     """The heat conduction of ``problem``'s body on ``kin``'s mesh, coupled to the mechanical solver's
-    displacement ``u`` (UFL) and quadrature state ``qmap``."""
+    displacement ``u`` (UFL) and quadrature state ``qmap``; ``material``: the body's (a Material, or a
+    MaterialRegions whose materials are the scene's in its order, :func:`fenics_plast.build.body_material`);
+    ``pairs``: the built contact pairs by name, ``Vc`` the displacement's CG1 space (their nodes')."""
     mesh = kin.mesh
     n_owned = mesh.topology.index_map(mesh.topology.dim).size_local
     specs = list(problem.materials.values())
-    cell_material = _cell_material(problem, cell_tags, groups, n_owned)
+    materials = getattr(material, "materials", [material])
+    cell_material = getattr(material, "cell_material", np.zeros(n_owned, dtype=np.int64))
     DG0 = dc.function_space(mesh, "DG", 0)
     cells = dc.cell_dofs(DG0).reshape(-1)[:n_owned]
     rho_c, k = fem.Function(DG0, name="rho_c"), fem.Function(DG0, name="conductivity")
@@ -101,7 +116,13 @@ def thermal_coupling(problem, kin, u, qmap, cell_tags, facet_tags, groups) -> Th
     rho_c.x.scatter_forward()
     k.x.scatter_forward()
     boundaries = [(n, TYPES[b.type], b, groups[b.group][1]) for n, b in problem.thermal_boundary.items()]
-    heat = HeatConduction(kin, u, rho_c, k, problem.thermal.initial_temperature, boundaries, facet_tags)
-    plastic = PlasticHeat([(material_of(m), m.taylor_quinney) for m in specs], np.repeat(cell_material, qmap.nq),
-                          qmap.eqps)
-    return ThermalCoupling(heat, plastic, qmap, problem.analysis.duration)
+    tool_pairs = {n: c for n, c in problem.contact.items() if c.get("tool") is not None and pairs}
+    contacts = [(n, groups[c.group][1], c.conductance, problem.tools[c.tool].temperature)
+                for n, c in tool_pairs.items() if c.conductance is not None]
+    heat = HeatConduction(kin, u, rho_c, k, problem.thermal.initial_temperature, boundaries, facet_tags, contacts)
+    plastic = PlasticHeat([(m, spec.taylor_quinney) for m, spec in zip(materials, specs)],
+                          np.repeat(cell_material, qmap.nq), qmap.eqps)
+    coupled = [(n, pairs[n], c.friction_heat_fraction) for n, c in tool_pairs.items()
+               if c.conductance is not None or c.friction > 0.0]
+    return ThermalCoupling(heat, plastic, qmap, problem.analysis.duration, coupled,
+                           node_dofs(Vc, heat.V) if coupled else None)

@@ -58,9 +58,13 @@ class HeatConduction:
     boundaries : [(name, ThermalBoundaryType, spec, tag)]: each thermal boundary, its type
         (:data:`fenics_plast.thermal.boundaries.TYPES`), its scene table and its facet tag.
     facet_tags : the mesh's facet tags.
+    contacts : [(name, tag, h [mW/(mm^2 K)], T_tool [K])]: contact with a rigid isothermal tool over the facets
+        tagged ``tag``, q = h chi (T_tool - T) into the body, chi (``in_contact[name]``, a Q1 Function the caller
+        sets before each step) 1 at the nodes in contact, 0 elsewhere.
     """
 
-    def __init__(self, kin, u, rho_c, conductivity, initial_temperature: float, boundaries, facet_tags):
+    def __init__(self, kin, u, rho_c, conductivity, initial_temperature: float, boundaries, facet_tags,
+                 contacts=()):
         mesh = kin.mesh
         self.mesh, self.comm = mesh, mesh.comm
         self.V = dc.function_space(mesh, "Lagrange", 1)
@@ -117,6 +121,14 @@ class HeatConduction:
             L = L + self.dt * coefficient * v * da * ds(tag)
             residual = residual - self.dt * (coefficient + slope * self.T) * v * da * ds(tag)
             self._flux_forms[name] = fem.form(self.dt * (coefficient + slope * self.T) * da * ds(tag))
+        self.in_contact = {}
+        for name, tag, h, T_tool in contacts:
+            self.names.append(name)
+            chi = self.in_contact[name] = fem.Function(self.V, name=f"in_contact_{name}")
+            a = a + self.dt * h * chi * T * v * da * ds(tag)
+            L = L + self.dt * h * chi * T_tool * v * da * ds(tag)
+            residual = residual - self.dt * h * chi * (T_tool - self.T) * v * da * ds(tag)
+            self._flux_forms[name] = fem.form(self.dt * h * chi * (T_tool - self.T) * da * ds(tag))
         self.a_form, self.L_form = fem.form(a), fem.form(L)
         self.residual_form = fem.form(residual)
         self.stored_form = fem.form(rho_c * (self.T - self.T_initial) * w * dx)
@@ -132,15 +144,18 @@ class HeatConduction:
         pc = self.ksp.getPC()
         pc.setType("lu")
         pc.setFactorSolverType("mumps")
-        self.heat = dict(plastic=0.0, **{n: 0.0 for n in self.names})
+        self.heat = dict(plastic=0.0, friction=0.0, **{n: 0.0 for n in self.names})
+        self._nodal = np.zeros(self.V.dofmap.index_map.size_local)
+        self.last_rate = {n: 0.0 for n in self.names}     # each boundary's heat rate over the last step [mW]
         self.steps = 0
         self.time = 0.0             # wall time in the steps (assembly, solve, the balance) [s]
 
     # -- the step --------------------------------------------------------------------------------
-    def advance(self, dt: float, plastic_heat: np.ndarray | None = None) -> None:
+    def advance(self, dt: float, plastic_heat: np.ndarray | None = None, friction_heat: np.ndarray | None = None
+                ) -> None:
         """One backward-Euler step of ``dt`` [s] from the present T, the deformation as it stands,
-        with ``plastic_heat`` (owned points,) [mJ/mm^3 per reference volume] released over the step
-        (None: none). Collective."""
+        with ``plastic_heat`` (owned points,) [mJ/mm^3 per reference volume] and ``friction_heat`` (owned
+        dofs of :attr:`V`,) [mJ] at the nodes released over the step (None: none). Collective."""
         start = time.perf_counter()
         self.T_n.x.array[:] = self.T.x.array
         self.dt.value = float(dt)
@@ -155,6 +170,9 @@ class HeatConduction:
         with self.b.localForm() as loc:
             loc.set(0.0)
         fpetsc.assemble_vector(self.b, self.L_form)
+        self._nodal[:] = 0.0 if friction_heat is None else friction_heat
+        with self.b.localForm() as loc:
+            loc.array[:len(self._nodal)] += self._nodal
         dc.apply_lifting(self.b, [self.a_form], [self.bcs])
         self.b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         fpetsc.set_bc(self.b, self.bcs)
@@ -172,30 +190,39 @@ class HeatConduction:
         def total(form):
             return self.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
         self.heat["plastic"] += total(self.plastic_form)
+        self.heat["friction"] += self.comm.allreduce(float(self._nodal.sum()), op=MPI.SUM)
+        dt = float(self.dt.value)
         for name, form in self._flux_forms.items():
-            self.heat[name] += total(form)
+            q = total(form)
+            self.heat[name] += q
+            self.last_rate[name] = q / dt if dt > 0.0 else 0.0
         if self._bc_dofs:
             with self.r.localForm() as loc:
                 loc.set(0.0)
             fpetsc.assemble_vector(self.r, self.residual_form)
+            with self.r.localForm() as loc:
+                loc.array[:len(self._nodal)] -= self._nodal
             self.r.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
             r = self.r.getArray(readonly=True)
             for name, dofs in self._bc_dofs.items():
-                self.heat[name] += self.comm.allreduce(float(r[dofs].sum()), op=MPI.SUM)
+                q = self.comm.allreduce(float(r[dofs].sum()), op=MPI.SUM)
+                self.heat[name] += q
+                self.last_rate[name] = q / dt if dt > 0.0 else 0.0
 
     # -- what it reports -------------------------------------------------------------------------
     def heat_balance(self) -> dict:
-        """The heats since t = 0 [mJ]: ``stored`` (int rho_c (T - T_0) dV), ``plastic``, each boundary's
-        (by name, into the body), ``boundaries`` (their sum) and ``balance_error`` = |stored - plastic -
-        boundaries| over the largest of them, 0 while they are all below the heat of 1e-9 K over the
-        body (collective)."""
+        """The heats since t = 0 [mJ]: ``stored`` (int rho_c (T - T_0) dV), ``plastic``, ``friction`` (the
+        share of the friction's dissipation released in the body), each thermal boundary's and tool
+        contact's (by name, into the body), ``boundaries`` (their sum) and ``balance_error`` = |stored -
+        plastic - friction - boundaries| over the largest of them, 0 while they are all below the heat of
+        1e-9 K over the body (collective)."""
         stored = self.comm.allreduce(fem.assemble_scalar(self.stored_form), op=MPI.SUM)
         out = dict(stored=stored, **self.heat)
         out["boundaries"] = sum(self.heat[n] for n in self.names)
-        scale = max(abs(stored), abs(out["plastic"]), abs(out["boundaries"]))
+        sources = out["plastic"] + out["friction"] + out["boundaries"]
+        scale = max(abs(stored), abs(out["plastic"]), abs(out["friction"]), abs(out["boundaries"]))
         # (no heat yet: what round-off leaves of 0, against the heat of 1e-9 K over the body, is no error)
-        out["balance_error"] = (abs(stored - out["plastic"] - out["boundaries"]) / scale
-                                if scale > 1e-9 * self.capacity else 0.0)
+        out["balance_error"] = abs(stored - sources) / scale if scale > 1e-9 * self.capacity else 0.0
         return out
 
     # -- restart -----------------------------------------------------------------------------------
