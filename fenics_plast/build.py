@@ -44,12 +44,18 @@ __all__ = ["material_of", "body_material", "cell_regions", "contact_modulus", "c
 # materials
 
 
-def material_of(spec) -> Material:
-    """:class:`Material` from a validated [materials.<name>] table."""
+def material_of(spec, field_temperature: float | None = None) -> Material:
+    """:class:`Material` from a validated [materials.<name>] table. ``field_temperature`` [K]: a run with
+    [thermal], whose temperature is a field (:mod:`fenics_plast.thermal`) starting there: a thermal law
+    (Johnson-Cook) then starts its points at it and heats none of them itself (taylor_quinney 0 in the
+    kernel: the plastic heat goes into the field, which sets the points' temperature after each
+    increment)."""
     h = spec.hardening
     hardening = None
     if h is not None:
         kw = {k: v for k, v in h.to_dict().items() if k != "law"}
+        if field_temperature is not None and "taylor_quinney" in kw:
+            kw.update(taylor_quinney=0.0, initial_temperature=field_temperature)
         # tonne/mm^3: a thermal law's adiabatic heating rho c_p (a law that does not declare it ignores it)
         hardening = Hardening(h.law, density=spec.density, **kw)
     return Material(spec.E, spec.nu, hardening, model=spec.model)
@@ -62,11 +68,12 @@ def body_material(problem, cell_tags, groups, n_owned):
     checked that). Several: a :class:`MaterialRegions` over the owned cells of their regions and the
     list of their densities, in the scene's order."""
     mats = problem.materials
+    field = None if problem.tables.get("thermal") is None else problem.thermal.initial_temperature
     if len(mats) == 1:
         (spec,) = mats.values()
-        return material_of(spec), spec.density
+        return material_of(spec, field), spec.density
     regions = cell_regions(cell_tags, groups, n_owned)
-    parts = [(material_of(spec), np.concatenate([regions[r] for r in spec.regions])) for spec in mats.values()]
+    parts = [(material_of(spec, field), np.concatenate([regions[r] for r in spec.regions])) for spec in mats.values()]
     return MaterialRegions(parts, n_owned), [spec.density for spec in mats.values()]
 
 

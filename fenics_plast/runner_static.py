@@ -186,6 +186,7 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None, since=0
                 linear_max_iterations=ana.linear_max_iterations, jacobian_every=ana.jacobian_every,
                 jacobian_rate=ana.jacobian_rate, predictor=ana.predictor)
     s = StaticSolver(kin, material, element=problem.mesh.element, log=log, progress=progress, **opts)
+    s.time_scale = ana.duration or 0.0
     Vc, vmap = s.displacement_space()
     constrained = apply_boundary(problem, s, ft, boundaries(problem, Vc, ft, groups), since)
     tools = tools_of(problem, comm)
@@ -280,8 +281,10 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
         fields["von_mises_stress"] = q.cell_mean(von_mises(q.tau_values, s.qp_jacobian()), name="von_mises_stress",
                                                  out=fields.get("von_mises_stress"))
         run.xf.write_function(s.displacement_function(), t)
-        for f in fields.values():
-            run.xf.write_function(f, t)
+        for name, f in fields.items():
+            # (with [thermal] the points' temperature of a Johnson-Cook law is the nodal field's, written as such)
+            if name != "temperature" or run.b.thermal is None:
+                run.xf.write_function(f, t)
         for f in contact_fields(run.b, run.b.Vc):
             run.xf.write_function(f, t)
         if run.b.thermal is not None:

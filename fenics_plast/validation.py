@@ -399,9 +399,9 @@ def _remeshing_checks(t: dict[str, Any], v: _Validator, geometry: str):
 
 def _thermal_checks(t: dict[str, Any], v: _Validator):
     """[thermal] and what it needs: physical time, each material's heat capacity and conductivity, the tool's
-    temperature of a pair with a conductance; not yet with Johnson-Cook hardening (its adiabatic temperature
-    state), [remeshing] (the field is not carried across a remesh yet) or heat between two facet groups of the
-    body. Thermal keys without [thermal] would be ignored: refused."""
+    temperature of a pair with a conductance; a Johnson-Cook law's heat keys the material's (its points take
+    the field's temperature); not yet with [remeshing] (the field is not carried across a remesh yet) or heat
+    between two facet groups of the body. Thermal keys without [thermal] would be ignored: refused."""
     thermal = t.get("thermal")
     if thermal is None:
         for n, c in t["contact"].items():
@@ -425,9 +425,15 @@ def _thermal_checks(t: dict[str, Any], v: _Validator):
         for k, unit in (("density", "kg/m³"), ("conductivity", "W/(m K)"), ("specific_heat", "J/(kg K)")):
             if m.get(k) is None:
                 v.fail(f"materials.{n}.{k} is missing: required by [thermal] [{unit}]")
-        if m.hardening is not None and m.hardening.law == "johnson_cook":
-            v.fail(f"materials.{n}.hardening.law = 'johnson_cook' with [thermal]: not built yet (Johnson-Cook "
-                   f"keeps its own adiabatic temperature at the points); use a strain-only law")
+        h = m.hardening
+        if h is not None and h.law == "johnson_cook":     # its points take the field's temperature
+            if h.initial_temperature is not None:
+                v.fail(f"materials.{n}.hardening.initial_temperature is given with [thermal]: the temperature "
+                       f"starts at thermal.initial_temperature (leave the law's out)")
+            for k in ("specific_heat", "taylor_quinney"):
+                if getattr(h, k) != m.get(k):
+                    v.fail(f"materials.{n}.hardening.{k} = {_fmt(getattr(h, k))} differs from materials.{n}.{k} = "
+                           f"{_fmt(m.get(k))}: with [thermal] they are one property of the material")
     for n, c in t["contact"].items():
         if c.get("master") is not None and (c.friction > 0.0 or c.conductance is not None):
             v.fail(f"contact.{n}: heat between two facet groups of the body (friction or conductance with "

@@ -52,10 +52,12 @@ LAW = HardeningLaw(
     "sigma_y = (A + B eqps^n)(1 + C ln(max(rate, reference_strain_rate) / "
     "reference_strain_rate))(1 - T*^m), T* = (T - room_temperature) / (melting_temperature - "
     "room_temperature) clamped to [0, 1], rate the plastic strain rate, T the temperature of each "
-    "quadrature point (a state variable, in fields.xdmf and checkpoints). Explicit analyses: the rate "
-    "is the increment over the step's time and T rises by adiabatic heating dT = taylor_quinney "
-    "sigma_y d eqps / (density specific_heat); static analyses (no physical time): no rate term and no "
-    "heating, T stays initial_temperature. Needs materials.<name>.density.",
+    "quadrature point (a state variable, in fields.xdmf and checkpoints). Explicit analyses, and static ones "
+    "with analysis.duration: the rate is the increment over its time and T rises by adiabatic heating dT = "
+    "taylor_quinney sigma_y d eqps / (density specific_heat); with [thermal] (static) T is the temperature "
+    "field's at the point instead (the field takes the plastic heat; specific_heat and taylor_quinney must be "
+    "the material's, initial_temperature is [thermal]'s); static analyses without duration: no rate term and "
+    "no heating, T stays initial_temperature. Needs materials.<name>.density.",
     {"A": Key("float", REQUIRED, "Johnson-Cook yield stress (at the reference rate and room temperature).", "MPa",
               lo=0.0, lo_open=False),
      "B": Key("float", REQUIRED, "Johnson-Cook strain-hardening modulus.", "MPa", lo=0.0, lo_open=False),

@@ -418,6 +418,9 @@ class StaticSolver:
         return len(n) >= 2 and n[-1] > o["jacobian_rate"] * n[-2]
 
     _callback_time = 0.0    # seconds spent in the residual and Jacobian callbacks of the current SNES solve
+    #: the physical time of a unit of load factor [s] (analysis.duration): the material update's time increment
+    #: (Johnson-Cook's strain rate) is the increment's share of it; 0: no physical time (no rate term)
+    time_scale = 0.0
 
     # -- loading ------------------------------------------------------------------------------
     def set_load(self, lam):
@@ -431,6 +434,7 @@ class StaticSolver:
         if not self.is_set_up:
             self.setup()
         self.set_load(lam)
+        self.qmap.dt[0] = (self.lam - self.lam_converged) * self.time_scale    # [s]; 0: no physical time
         self._predict(lam, lam_prev_step, tangent_predictor)
         self.norms = []
         self._bad_update = False

@@ -19,6 +19,7 @@ from dolfinx import fem
 from fenics_plast import dolfinx_compat as dc
 from fenics_plast.thermal.boundaries import TYPES
 from fenics_plast.thermal.heat import HeatConduction
+from fenics_plast.quadrature import von_mises
 from fenics_plast.thermal.plastic_heat import PlasticHeat
 
 __all__ = ["ThermalCoupling", "thermal_coupling", "J_PER_KG_K"]
@@ -41,11 +42,13 @@ class ThermalCoupling:
         self.duration = float(duration)
         self.contacts, self.node_dofs = list(contacts), node_dofs
         self.t_last = 0.0
+        self._at_points = None
 
     def after_increment(self, t: float) -> None:
         """One heat step from the last converged pseudo-time to ``t`` (collective). Before the contact's
         commit: the friction's dissipation is that since the last commit."""
-        q = self.plastic.step(self.qmap.eqps)
+        tau_eq = von_mises(self.qmap.tau_values) if self.plastic.needs_stress else None
+        q = self.plastic.step(self.qmap.eqps, tau_eq)
         friction = np.zeros(self.heat.V.dofmap.index_map.size_local) if self.contacts else None
         for name, pair, fraction in self.contacts:
             nodes = pair.contact_nodes()
@@ -59,6 +62,18 @@ class ThermalCoupling:
                 np.add.at(friction, dofs, fraction * pair.friction_dissipation())
         self.heat.advance((t - self.t_last) * self.duration, q, friction)
         self.t_last = float(t)
+        self.to_points()
+
+    def to_points(self) -> None:
+        """The temperature field at the quadrature points, as the state of a temperature-dependent law
+        (``qmap.thermal``: Johnson-Cook) for the next increment (the staggered split); nothing otherwise."""
+        if not self.qmap.thermal:
+            return
+        if self._at_points is None:
+            self._at_points = fem.Expression(self.heat.T, self.qmap.points)
+        values = dc.eval_expression(self._at_points, self.heat.mesh, self.qmap.cells).reshape(-1)
+        self.qmap.temperature[:] = values
+        self.qmap.temperature_trial[:] = values
 
     def state_dict(self) -> dict:
         """The restart state (collective; :mod:`fenics_plast.checkpoint`): the field and the heats

@@ -7,7 +7,11 @@ volume, beta times the plastic work of the step,
 return, tau : d eps_p = sigma_y d eqps, sigma_y Kirchhoff, per reference volume; beta the material's
 Taylor-Quinney coefficient). :func:`flow_stress_integral` is the one definition of that integral: the
 static energies' dissipation (:meth:`fenics_plast.static_energy.StaticEnergy.plastic_from_state`)
-takes it from 0 to eqps, the heat source from the last heat step's eqps to the present one.
+takes it from 0 to eqps, the heat source from the last heat step's eqps to the present one. A law whose
+flow stress depends on the temperature and the rate as well (Johnson-Cook: ``hardening.thermal``) has no
+such curve: its plastic work over the step is taken as tau_eq (eqps_n+1 - eqps_n), the point's von Mises
+Kirchhoff stress at the end of the step (on the yield surface there) times the step's plastic strain,
+backward Euler like its return map.
 """
 from __future__ import annotations
 
@@ -43,9 +47,15 @@ class PlasticHeat:
         self.point_material = np.asarray(point_material, dtype=np.int64)
         self.eqps_last = np.array(eqps, dtype=float)
 
-    def step(self, eqps: np.ndarray) -> np.ndarray:
+    @property
+    def needs_stress(self) -> bool:
+        """Whether :meth:`step` needs the points' stress (a material of a temperature-dependent law)."""
+        return any(m.hardening is not None and m.hardening.thermal for m, _ in self.materials)
+
+    def step(self, eqps: np.ndarray, tau_eq: np.ndarray | None = None) -> np.ndarray:
         """q_p (owned points,) [mJ/mm^3] from the eqps of the last call (or the start) to ``eqps``; remembers
-        ``eqps``. A purely elastic material releases none."""
+        ``eqps``. ``tau_eq`` (owned points,) [MPa]: the von Mises Kirchhoff stress at the end of the step (for
+        the laws of :attr:`needs_stress`). A purely elastic material releases none."""
         eqps = np.asarray(eqps, dtype=float)
         q = np.zeros_like(eqps)
         for i, (material, beta) in enumerate(self.materials):
@@ -53,6 +63,9 @@ class PlasticHeat:
             if h is None or beta == 0.0:
                 continue
             at = self.point_material == i
-            q[at] = beta * flow_stress_integral(h, self.eqps_last[at], eqps[at])
+            if h.thermal:
+                q[at] = beta * tau_eq[at] * (eqps[at] - self.eqps_last[at])
+            else:
+                q[at] = beta * flow_stress_integral(h, self.eqps_last[at], eqps[at])
         self.eqps_last = eqps.copy()
         return q
