@@ -23,7 +23,7 @@
    increment).
 4. Serial = 2 ranks; a run killed after its 2nd checkpoint and resumed ends as the uninterrupted one.
 5. Johnson-Cook with [thermal] (its points at the field's temperature) against its own adiabatic heating:
-   first order in the increment, 0.064 % in dT and 0.084 % in force at 40 increments; the rate term on.
+   first order in the increment, -0.36 % in dT and 0.095 % in force at 40 increments; the rate term on.
 6. Scene rules: [thermal] needs analysis.duration and the materials' thermal keys, a conductance its tool's
    temperature, a Johnson-Cook law the material's heat keys; refused with [remeshing] and in explicit
    analyses; thermal keys without [thermal] refused; a scene without [thermal] assembles no heat equation.
@@ -200,8 +200,9 @@ def jc_scenes(tmp_path):
 def test_johnson_cook_follows_the_field(tmp_path):
     """Johnson-Cook in a static run with [thermal], insulated and homogeneous: its points take the field's
     temperature after each increment (staggered), against the law's own adiabatic heating (implicit in its
-    return map): the temperature rise and the force differ by O(increment), measured 0.26 / 0.064 % (dT) and
-    0.33 / 0.084 % (force) at 10 / 40 increments; the rate term is on (analysis.duration: 2 s)."""
+    return, backward Euler; the field's plastic heat is trapezoidal): the temperature rise and the force differ
+    by O(increment), measured -1.15 / -0.36 / -0.11 % (dT) and 0.36 / 0.095 / 0.024 % (force) at 10 / 40 / 160
+    increments; the rate term is on (analysis.duration: 2 s)."""
     field, adiabatic = jc_scenes(tmp_path)
     diffs = []
     for n in (10, 40):
@@ -213,8 +214,8 @@ def test_johnson_cook_follows_the_field(tmp_path):
     diffs = np.array(diffs)
     print(f"\nJohnson-Cook, field against adiabatic at 10 / 40 increments: dT {diffs[:, 0]}, force {diffs[:, 1]}")
     order = np.log(np.abs(diffs[0] / diffs[1])) / np.log(4.0)
-    assert np.all(np.abs(order - 1.0) < 0.1), order
-    assert np.all(np.abs(diffs[1]) < 1e-3), diffs
+    assert np.all(np.abs(order - 1.0) < 0.2), order
+    assert np.all(np.abs(diffs[1]) < 5e-3), diffs
     slow = run_scene(field, tmp_path / "slow", "analysis.duration=200", "output.xdmf=false")
     fast = run_scene(field, tmp_path / "fast", "analysis.duration=0.02", "output.xdmf=false")
     assert abs(fast["force_kN"]) > abs(slow["force_kN"])          # strain-rate hardening
@@ -252,6 +253,48 @@ def test_kill_and_resume(tmp_path):
     for k in ("max_T_K", "min_T_K", "mean_T_K", "stored_heat_J", "plastic_heat_J", "boundary_heat_J"):
         assert resumed[k] == pytest.approx(whole[k], rel=1e-12), k
     assert whole["boundary_heat_J"] < 0.0                   # the top face radiates
+
+
+# --- the hot upsetting demo -------------------------------------------------------------------------
+
+HOT = ROOT / "demos" / "hot_upsetting.toml"
+HOT_COARSE = ("mesh.parameters.cells_radial=10", "mesh.parameters.cells_axial=15", "analysis.increments=25",
+              "analysis.max_increment=0.04", "output.plots=false", "output.xdmf=false")
+
+
+def check_hot(s, plastic_tolerance):
+    """The demo's heat balance (stored = plastic + friction + boundaries, to round-off), its plastic heat
+    against beta x the mechanical energies' plastic dissipation (internal work - elastic energy, trapezoidal:
+    an independent account; they differ by the trapezoid's error where points start to yield), and the
+    temperatures between the die's and the billet's plus its plastic heating."""
+    print(f"\nhot upsetting: force {s['die_force_kN']:.4g} kN, T {s['min_T_K']:.1f} .. {s['max_T_K']:.1f} K (mean "
+          f"{s['mean_T_K']:.1f}), heats stored {s['stored_heat_J']:.6g} = plastic {s['plastic_heat_J']:.6g} + friction "
+          f"{s['friction_heat_J']:.4g} + boundaries {s['boundary_heat_J']:.6g} J (error {s['heat_balance_error']:.1e}); "
+          f"plastic heat / (0.9 x dissipation) - 1 = {s['plastic_heat_J'] / (0.9 * s['plastic_dissipation_J']) - 1:+.2e}")
+    assert s["converged"] and s["heat_balance_error"] < 1e-10
+    assert s["plastic_heat_J"] == pytest.approx(0.9 * s["plastic_dissipation_J"], rel=plastic_tolerance)
+    assert 573.0 < s["min_T_K"] < s["mean_T_K"] < 1373.0 < s["max_T_K"] < 1450.0
+    assert s["die_heat_J"] > 0.0 and s["boundary_heat_J"] < -s["die_heat_J"] and s["friction_heat_J"] > 0.0
+
+
+def test_hot_upsetting_coarse(tmp_path):
+    """demos/hot_upsetting.toml at half its cells and increments (measured: plastic heat +1.7 % of beta W_p)."""
+    check_hot(run_scene(HOT, tmp_path / "hot", *HOT_COARSE), 0.03)
+
+
+@pytest.mark.slow
+def test_hot_upsetting_demo(tmp_path):
+    """The demo as shipped (measured: plastic heat +0.74 % of beta W_p, 188.6 kN, 895 .. 1384 K)."""
+    check_hot(run_scene(HOT, tmp_path / "hot", "output.plots=false"), 0.01)
+
+
+@needs_mpirun
+def test_hot_upsetting_serial_equals_two_ranks(tmp_path):
+    one = run_scene(HOT, tmp_path / "one", *HOT_COARSE)
+    two = run_scene(HOT, tmp_path / "two", *HOT_COARSE, np_ranks=2)
+    for k in ("die_force_kN", "max_T_K", "min_T_K", "mean_T_K", "stored_heat_J", "plastic_heat_J",
+              "friction_heat_J", "die_heat_J"):
+        assert two[k] == pytest.approx(one[k], rel=1e-6), k
 
 
 # --- scene rules -------------------------------------------------------------------------------------

@@ -77,24 +77,26 @@ class ThermalCoupling:
 
     def state_dict(self) -> dict:
         """The restart state (collective; :mod:`fenics_plast.checkpoint`): the field and the heats
-        (:meth:`HeatConduction.state_dict`), the eqps of the last heat step keyed by point, t_last."""
+        (:meth:`HeatConduction.state_dict`), the eqps and von Mises stress of the last heat step keyed by
+        point, t_last."""
         from fenics_plast.checkpoint import Keyed
         kT, kq = self.keys()
         return dict(**self.heat.state_dict(kT), eqps_last=Keyed(self.plastic.eqps_last.copy(), kq),
-                    t_last=self.t_last)
+                    tau_last=Keyed(self.plastic.tau_last.copy(), kq), t_last=self.t_last)
 
     def load_state(self, d) -> None:
         """Restore :meth:`state_dict` (collective: CheckpointError on every rank for another mesh)."""
         from fenics_plast import checkpoint as ck
         kT, kq = self.keys()
         self.heat.load_state(d, kT)
-        why, eqps = None, None
+        why, eqps, tau = None, None, None
         try:
-            eqps = d["eqps_last"].take(kq)
+            eqps, tau = d["eqps_last"].take(kq), d["tau_last"].take(kq)
         except ck.CheckpointError as e:
             why = str(e)
         ck.raise_on_any(self.heat.comm, why)
         self.plastic.eqps_last = np.asarray(eqps, dtype=float)
+        self.plastic.tau_last = np.asarray(tau, dtype=float)
         self.t_last = float(d["t_last"])
 
     def keys(self):
