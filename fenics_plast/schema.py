@@ -420,9 +420,11 @@ SCHEMA: dict[str, Table] = {
     "thermal": Table(
         "Heat conduction in the body, coupled to the deformation (static analyses): the temperature is a "
         "nodal field, advanced by one backward-Euler step after each converged increment over its physical "
-        "time (analysis.duration), heated by the plastic work (materials' taylor_quinney), with the "
-        "[thermal_boundary] conditions (elsewhere insulated). Needs analysis.duration and each material's "
-        "density, conductivity and specific_heat. Absent: no heat equation is assembled.",
+        "time (analysis.duration), heated by the plastic work (materials' taylor_quinney) and friction "
+        "(contact pairs' friction_heat_fraction), exchanging heat with tools (contact pairs' conductance, "
+        "tools' temperature) and through the [thermal_boundary] conditions (elsewhere insulated); a "
+        "Johnson-Cook flow stress takes the field's temperature. Needs analysis.duration and each "
+        "material's density, conductivity and specific_heat. Absent: no heat equation is assembled.",
         when_analysis=STATIC, keys={
             "initial_temperature": Key("float", REQUIRED, "Temperature of the body at t = 0.", "K", lo=0.0),
         }),

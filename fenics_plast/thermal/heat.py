@@ -12,21 +12,25 @@ J = det F, the 3x3 kinematics of :class:`fenics_plast.kinematics.Kinematics`; w 
 axisymmetry, 1 otherwise), for every test function v of the Q1 space:
 
     int rho_c (T - T_n) v w dX  +  dt int k J (F^-T Grad T) . (F^-T Grad v) w dX
-        =  int q_p v w dX  +  dt sum_groups int (a + b T) v J |F^-T N| w dS
+        =  int q_p v w dX  +  sum_nodes q_f v  +  dt sum_groups int (a + b T) v J |F^-T N| w dS
+           +  dt sum_tools int h chi (T_tool - T) v J |F^-T N| w dS
 
 rho_c [mJ/(mm^3 K)]: density x specific heat per REFERENCE volume (the mass of a reference volume is
 conserved); k [mW/(mm K)] (= W/(m K)); the conduction term is k grad_x T . grad_x v dv of the current
 body; q_p [mJ/mm^3 per reference volume]: the heat the step's plastic work released
 (:mod:`fenics_plast.thermal.plastic_heat`); a + b T [mW/mm^2]: the flux into the body of each
 thermal boundary (:mod:`fenics_plast.thermal.boundaries`) over the current area, Nanson's
-n da = J F^-T N dA. Prescribed temperatures are Dirichlet conditions. Backward Euler is first order
+n da = J F^-T N dA; q_f [mJ]: the friction heat released at the contact nodes over the step; h
+[mW/(mm^2 K)]: a tool contact's conductance, chi the Q1 indicator of the nodes in contact, T_tool the
+tool's temperature. Prescribed temperatures are Dirichlet conditions. Backward Euler is first order
 in time and unconditionally stable; Q1 second order in space (measured: tests/test_heat_conduction.py).
 The linear system (symmetric positive definite) is solved by MUMPS LU, as the mechanics.
 
 The heat balance is accumulated step by step: ``stored`` = int rho_c (T - T_0) w dX, ``plastic`` =
-sum of int q_p w dX, and, per thermal boundary, the heat in through it: a flux boundary's
+sum of int q_p w dX, ``friction`` = sum of q_f, and, per thermal boundary and tool contact, the heat in
+through it: a flux boundary's
 dt int (a + b T) da, a prescribed temperature's the heat equation's reaction on its nodes (the
-residual of the unconstrained equations there). stored = plastic + sum of the boundaries' holds to
+residual of the unconstrained equations there). stored = plastic + friction + the boundaries' holds to
 the linear solver's tolerance, by construction of the scheme (the test functions sum to 1).
 
 Shapes: ``rho_c`` and ``conductivity`` are DG0 Functions (per cell); point arrays are the
