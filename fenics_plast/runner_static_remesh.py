@@ -20,7 +20,7 @@ def remeshed(problem, comm, b, remesher, reason, quantities, build, log=None, pr
     """The run ``b`` (:func:`build_static`'s, at a converged load t) on a new mesh of its deformed outline:
     the quadrature state transferred, the solver built anew (prescribed displacements counted from t,
     the contact pairs' penalties kept, their committed tractions carried to the new nodes,
-    :func:`_carry_contact_history`), equilibrium restored at the same load (one Newton solve, no load change) and the
+    :func:`_carry_contact_history`; a [thermal] run's temperature field, :func:`_carry_temperature`), equilibrium restored at the same load (one Newton solve, no load change) and the
     jump of the one-column outputs across the remesh recorded (``quantities``: the old mesh's; ``build``:
     :func:`fenics_plast.runner_static.build_static`, passed in: the runner imports this module).
     Returns the new build with ``u_before`` (the displacement from the first mesh's reference at its
@@ -50,6 +50,8 @@ def remeshed(problem, comm, b, remesher, reason, quantities, build, log=None, pr
     new_total = fem.Function(nb.Vc)
     transfer.nodal_function(total, new_total)
     carry_displacement(nb, new_total.x.array)
+    if b.thermal is not None:
+        rec.transfer["temperature_shift_K"] = _carry_temperature(b.thermal, nb.thermal, transfer, state, t)
     nb.group_facets, nb.remesh_record, nb.since = new.group_facets, new.record, t
     s2 = nb.solver
     s2.qmap.set_state(state)
@@ -171,6 +173,30 @@ def _carry_contact_history(old_pairs, new_pairs, comm):
                                   new.X[:, :2], comm)
         d = new.gdim
         new.hist.store(values[:, :d], values[:, d:2 * d], values[:, 2 * d])
+
+
+def _carry_temperature(old, new, transfer, state, t):
+    """The temperature field of a [thermal] run (``old``, ``new``: the builds' ThermalCoupling) carried to
+    the new mesh: T evaluated at the new nodes (:meth:`fenics_plast.remeshing.transfer.StateTransfer.nodal_function`,
+    linear fields exact), the accumulated heats and step count kept, the last heat step's eqps the
+    transferred ones (``state``), its stresses unknown (the next step starts at the end's), the points of a
+    temperature-dependent law at the new field. The interpolation gains or loses heat (a piecewise-linear
+    field evaluated at other nodes; the new reference volume is the old current one), so the field is then
+    shifted uniformly to keep the stored heat int rho c (T - T_0) dV: the heat balance stays closed, and the
+    shift [K] (returned) is the transfer's measure, in the remesh's record."""
+    from fenics_plast.thermal.plastic_heat import NOT_FLOWING
+    stored = old.heat.heat_balance()["stored"]
+    transfer.nodal_function(old.heat.T, new.heat.T)
+    new.heat.heat.update(old.heat.heat)
+    shift = (stored - new.heat.heat_balance()["stored"]) / new.heat.capacity
+    new.heat.T.x.array[:] += shift
+    new.heat.T_n.x.array[:] = new.heat.T.x.array
+    new.heat.steps, new.heat.time = old.heat.steps, old.heat.time
+    new.plastic.eqps_last = np.array(state["eqps"], dtype=float)
+    new.plastic.tau_last = np.full_like(new.plastic.eqps_last, NOT_FLOWING)
+    new.t_last = t
+    new.to_points()
+    return shift
 
 
 def _tool_gap(tool, t):

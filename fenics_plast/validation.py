@@ -400,8 +400,7 @@ def _remeshing_checks(t: dict[str, Any], v: _Validator, geometry: str):
 def _thermal_checks(t: dict[str, Any], v: _Validator):
     """[thermal] and what it needs: physical time, each material's heat capacity and conductivity, the tool's
     temperature of a pair with a conductance; a Johnson-Cook law's heat keys the material's (its points take
-    the field's temperature); not yet with [remeshing] (the field is not carried across a remesh yet) or heat
-    between two facet groups of the body. Thermal keys without [thermal] would be ignored: refused."""
+    the field's temperature); not yet with heat between two facet groups of the body. Thermal keys without [thermal] would be ignored: refused."""
     thermal = t.get("thermal")
     if thermal is None:
         for n, c in t["contact"].items():
@@ -441,9 +440,6 @@ def _thermal_checks(t: dict[str, Any], v: _Validator):
         if c.conductance is not None and c.get("tool") is not None and t["tools"][c.tool].get("temperature") is None:
             v.fail(f"tools.{c.tool}.temperature is missing: required by contact.{n}.conductance (the tool's "
                    f"temperature) [K]")
-    if t.get("remeshing") is not None:
-        v.fail("thermal: [thermal] with [remeshing] is not built yet (the temperature field is not carried "
-               "across a remesh)")
 
 
 def _cross_checks(t: dict[str, Any], v: _Validator):

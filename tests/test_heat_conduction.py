@@ -25,8 +25,7 @@
 5. Johnson-Cook with [thermal] (its points at the field's temperature) against its own adiabatic heating:
    first order in the increment, -0.36 % in dT and 0.095 % in force at 40 increments; the rate term on.
 6. Scene rules: [thermal] needs analysis.duration and the materials' thermal keys, a conductance its tool's
-   temperature, a Johnson-Cook law the material's heat keys; refused with [remeshing] and in explicit
-   analyses; thermal keys without [thermal] refused; a scene without [thermal] assembles no heat equation.
+   temperature, a Johnson-Cook law the material's heat keys; refused in explicit analyses; thermal keys without [thermal] refused; a scene without [thermal] assembles no heat equation.
 """
 from __future__ import annotations
 
@@ -288,6 +287,42 @@ def test_hot_upsetting_demo(tmp_path):
     check_hot(run_scene(HOT, tmp_path / "hot", "output.plots=false"), 0.01)
 
 
+def test_hot_upsetting_remeshed(tmp_path):
+    """The coarse demo remeshed at 1 mm (twice, at 87 and 91 % of the stroke, where the side folds onto the die):
+    the temperature carried to each new mesh (evaluated at its nodes, then shifted uniformly to keep the stored
+    heat; measured shifts 0.20 and 0.49 K), the final force within 1 % of the unremeshed run (-0.12 %), the
+    temperatures within 0.5 % (0.06 %), the heat balance closed."""
+    plain = run_scene(HOT, tmp_path / "plain", *HOT_COARSE)
+    s = run_scene(HOT, tmp_path / "remeshed", *HOT_COARSE, "remeshing.size=1.0", "output.checkpoint_every=0")
+    shifts = [r["transfer"]["temperature_shift_K"] for r in s["remesh_records"]]
+    print(f"\nremeshed {s['remeshes']} times, shifts {shifts} K: force {s['die_force_kN'] / plain['die_force_kN'] - 1:+.2e}, "
+          + ", ".join(f"{k} {s[k] / plain[k] - 1:+.2e}" for k in ("max_T_K", "min_T_K", "mean_T_K", "die_heat_J")))
+    assert s["remeshes"] >= 1 and max(abs(x) for x in shifts) < 1.0
+    assert s["die_force_kN"] == pytest.approx(plain["die_force_kN"], rel=0.01)
+    for k in ("max_T_K", "min_T_K", "mean_T_K"):
+        assert s[k] == pytest.approx(plain[k], rel=0.005), k
+    assert s["heat_balance_error"] < 1e-10
+
+
+def test_hot_upsetting_remeshed_kill_and_resume(tmp_path):
+    """Killed at its 5th checkpoint (increment 25, after both remeshes: the checkpoint holds the new mesh and
+    its temperature field) and resumed: the same run to the last digit."""
+    sets = [*HOT_COARSE, "remeshing.size=1.0", "output.checkpoint_every=5"]
+    whole = run_scene(HOT, tmp_path / "whole", *sets)
+    scene = [sys.executable, "-m", "fenics_plast.cli", "run", str(HOT)] + [a for s in sets for a in ("--set", s)]
+    env = dict(os.environ, FENICS_PLAST_PROGRESS="off")
+    r = subprocess.run(scene + ["--out", str(tmp_path / "run")], capture_output=True, text=True, cwd=ROOT,
+                       env=dict(env, FENICS_PLAST_KILL_AFTER_CHECKPOINTS="5"), timeout=300)
+    assert r.returncode == 137, r.stdout[-2000:] + r.stderr[-2000:]
+    r = subprocess.run(scene + ["--resume", str(tmp_path / "run")], capture_output=True, text=True, cwd=ROOT,
+                       env=env, timeout=300)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    resumed = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert resumed["resumed_from_checkpoint"] == 25 and resumed["remeshes"] == whole["remeshes"] == 2
+    for k in ("die_force_kN", "max_T_K", "min_T_K", "mean_T_K", "stored_heat_J", "plastic_heat_J", "die_heat_J"):
+        assert resumed[k] == whole[k], k
+
+
 @needs_mpirun
 def test_hot_upsetting_serial_equals_two_ranks(tmp_path):
     one = run_scene(HOT, tmp_path / "one", *HOT_COARSE)
@@ -311,7 +346,6 @@ BASE = (SCENES / "heat_compression.toml").read_text().replace('"../../meshes/', 
     (lambda t: t + '\n[thermal_boundary.x]\ngroup = "top"\ntype = "sauna"\n', "thermal_boundary.x.type"),
     (lambda t: t + '\n[thermal_boundary.x]\ngroup = "top"\ntype = "convection"\nambient_temperature = 293.0\n',
      "thermal_boundary.x.film_coefficient"),
-    (lambda t: t + '\n[remeshing]\nsize = 1.0\n', "[remeshing]"),
     (lambda t: t + '\n[tools.die]\nshape = "plane"\npoint = [0.0, 5.0]\nnormal = [0.0, -1.0]\n'
      '[contact.die]\ntool = "die"\ngroup = "top"\nconductance = 1e4\n', "tools.die.temperature"),
     (lambda t: t + '\n[outputs.q]\nquantity = "tool_heat"\ncontact = "nothing"\n', "outputs.q.contact"),
