@@ -89,6 +89,13 @@ class QuadratureMap:
         self.variables = present(material)
         self.thermal = bool(getattr(material, "thermal", False))
         self.dt = np.zeros(1)                    # time increment of the update [s]; 0: no physical time
+        #: (n,) or None: the factor 1 / (the increment's isotropic thermal stretch) each point's F_u takes
+        #: (:mod:`fenics_plast.thermal.build`: theta_n / theta_n+1); None: no thermal expansion
+        self.stretch = None
+        #: (n,) or None: J_theta, the thermal volume ratio of the stress-free state to the reference, by which
+        #: the material's Kirchhoff stress (per stress-free volume, tau = J_e sigma) and tangent are scaled to
+        #: the reference's (tau = J sigma, J = J_e J_theta): the solver's; None: 1
+        self.volume_scale = None
         # trivial dofmap: the material writes straight into the Functions' arrays (views)
         self.tau_values = (self.tau.x.array[: self.n * 9].reshape(self.n, 3, 3) if self.trivial_tau
                            else np.zeros((self.n, 3, 3)))
@@ -118,11 +125,17 @@ class QuadratureMap:
         if the stress or tangent is not finite.
         """
         Fu = self.evaluate_Fu()
+        if self.stretch is not None:            # the thermal stretch's increment taken out: F_u of F_e F_p
+            Fu *= self.stretch[:, None, None]
         tangent = tangent and self.has_tangent
         a = self.a_values if tangent else None
         self.material.update_into(Fu, self.binv, self.eqps, self.tau_values,
                                   self.binv_trial, self.eqps_trial, a, temp_n=self.temperature,
                                   temp=self.temperature_trial, dt=float(self.dt[0]))
+        if self.volume_scale is not None:       # Kirchhoff per stress-free volume -> per reference volume
+            self.tau_values *= self.volume_scale[:, None, None]
+            if tangent:
+                a *= self.volume_scale[:, None, None, None, None]
         bad = not np.isfinite(self.tau_values).all() or (tangent and not np.isfinite(a).all())
         # scatter_forward is collective: write on every rank before raising (a rank-local raise
         # here would deadlock the others)

@@ -180,12 +180,30 @@ def _carry_temperature(old, new, transfer, state, t):
     the new mesh: T evaluated at the new nodes (:meth:`fenics_plast.remeshing.transfer.StateTransfer.nodal_function`,
     linear fields exact), the accumulated heats and step count kept, the last heat step's eqps the
     transferred ones (``state``), its stresses unknown (the next step starts at the end's), the points of a
-    temperature-dependent law at the new field. The interpolation gains or loses heat (a piecewise-linear
-    field evaluated at other nodes; the new reference volume is the old current one), so the field is then
+    temperature-dependent law at the new field. The heat capacity per volume (rho c) is carried as the
+    deformed body's, rho c / J per old cell, its total kept (StateTransfer.cell_values, ``conserve``): the new
+    reference is the deformed shape, the mass the old one (thermal expansion, elastic volume change). The
+    interpolation of T gains or loses heat (a piecewise-linear field evaluated at other nodes), so the field is then
     shifted uniformly to keep the stored heat int rho c (T - T_0) dV: the heat balance stays closed, and the
-    shift [K] (returned) is the transfer's measure, in the remesh's record."""
+    shift [K] (returned) is the transfer's measure, in the remesh's record. With thermal expansion, the
+    stretch of the last heat step, not yet taken by an increment, is dropped (the new reference is the
+    deformed shape; its points' thermal stretch counts from their temperature now)."""
+    from fenics_plast import dolfinx_compat as dc
+    from fenics_plast.remeshing.transfer import quadrature_volumes
     from fenics_plast.thermal.plastic_heat import NOT_FLOWING
     stored = old.heat.heat_balance()["stored"]
+    # the heat capacity per volume of the deformed body (rho c per reference volume / J, cell by cell), carried
+    # with its total kept: the new reference is the deformed shape, its mass the old mass
+    mesh, n_old = transfer.mesh, transfer.mesh.topology.index_map(transfer.mesh.topology.dim).size_local
+    J = (quadrature_volumes(mesh, transfer.degree, transfer.axisymmetric, transfer.x).sum(axis=1)
+         / quadrature_volumes(mesh, transfer.degree, transfer.axisymmetric).sum(axis=1))
+    rho_c = old.heat.rho_c.x.array[dc.cell_dofs(old.heat.rho_c.function_space).reshape(-1)[:n_old]] / J
+    new_mesh = new.heat.mesh
+    n_new = new_mesh.topology.index_map(new_mesh.topology.dim).size_local
+    new.heat.rho_c.x.array[dc.cell_dofs(new.heat.rho_c.function_space).reshape(-1)[:n_new]] = \
+        transfer.cell_values(rho_c, new_mesh, conserve=True)
+    new.heat.rho_c.x.scatter_forward()
+    new.heat.update_capacity()
     transfer.nodal_function(old.heat.T, new.heat.T)
     new.heat.heat.update(old.heat.heat)
     shift = (stored - new.heat.heat_balance()["stored"]) / new.heat.capacity
@@ -195,7 +213,7 @@ def _carry_temperature(old, new, transfer, state, t):
     new.plastic.eqps_last = np.array(state["eqps"], dtype=float)
     new.plastic.tau_last = np.full_like(new.plastic.eqps_last, NOT_FLOWING)
     new.t_last = t
-    new.to_points()
+    new.to_points(expand=False)
     return shift
 
 

@@ -303,6 +303,9 @@ SCHEMA: dict[str, Table] = {
                                 "W/(m K)", **_pos()),
             "specific_heat": Key("float", OPTIONAL, "Specific heat c (with [thermal], required there): rho c the "
                                  "heat capacity per volume.", "J/(kg K)", **_pos()),
+            "expansion": Key("float", OPTIONAL, "With [thermal]: the linear thermal expansion coefficient alpha: the "
+                             "material's stress-free stretch is 1 + alpha (T - thermal.initial_temperature) in every "
+                             "direction (F = F_e F_theta F_p); absent: no thermal expansion.", "1/K", **_nonneg()),
             "taylor_quinney": Key("float", 0.9, "Taylor-Quinney coefficient beta (with [thermal]): the fraction of "
                                   "the plastic work that heats the body.", "", lo=0.0, lo_open=False, hi=1.0,
                                   hi_open=False),

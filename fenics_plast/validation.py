@@ -412,7 +412,7 @@ def _thermal_checks(t: dict[str, Any], v: _Validator):
         if t["thermal_boundary"]:
             v.fail(f"thermal_boundary.{next(iter(t['thermal_boundary']))}: thermal boundaries need a [thermal] table")
         for n, m in t["materials"].items():
-            for k in ("conductivity", "specific_heat"):
+            for k in ("conductivity", "specific_heat", "expansion"):
                 if m.get(k) is not None:
                     v.fail(f"materials.{n}.{k} is given but there is no [thermal] table (heat conduction): it "
                            f"would be ignored")

@@ -37,12 +37,18 @@ class ThermalCoupling:
     node (block) of the displacement's CG1 space."""
 
     def __init__(self, heat: HeatConduction, plastic: PlasticHeat, qmap, duration: float, contacts=(),
-                 node_dofs=None):
+                 node_dofs=None, expansion=None):
         self.heat, self.plastic, self.qmap = heat, plastic, qmap
         self.duration = float(duration)
         self.contacts, self.node_dofs = list(contacts), node_dofs
+        self.expansion = expansion              # (owned points,) alpha [1/K], or None: no thermal expansion
         self.t_last = 0.0
         self._at_points = None
+        #: (owned points,) T at the points after the last heat step [K] (the thermal stretch's reference)
+        self.T_points = np.full(qmap.n, heat.T_initial)
+        #: (owned points,) the thermal stretch theta = 1 + alpha (T - T_0) of the mesh's reference (1: the
+        #: first mesh; a remeshed one's reference is a deformed, expanded shape)
+        self.theta_reference = np.ones(qmap.n)
 
     def after_increment(self, t: float) -> None:
         """One heat step from the last converged pseudo-time to ``t`` (collective). Before the contact's
@@ -64,39 +70,60 @@ class ThermalCoupling:
         self.t_last = float(t)
         self.to_points()
 
-    def to_points(self) -> None:
-        """The temperature field at the quadrature points, as the state of a temperature-dependent law
-        (``qmap.thermal``: Johnson-Cook) for the next increment (the staggered split); nothing otherwise."""
-        if not self.qmap.thermal:
+    def to_points(self, expand: bool = True) -> None:
+        """The temperature field at the quadrature points after a heat step, for the next increment (the
+        staggered split): the state of a temperature-dependent law (``qmap.thermal``: Johnson-Cook), and, with
+        thermal expansion, the increment's thermal stretch theta = 1 + alpha (T - T_0) taken out of F_u
+        (``qmap.stretch`` = theta_last / theta_now) and the stress scaled to the reference's volume
+        (``qmap.volume_scale`` = (theta / theta_reference)^3, tau = J_e J_theta sigma); ``expand`` False: the
+        mesh's reference is now (a remesh), no stretch pending."""
+        if not (self.qmap.thermal or self.expansion is not None):
             return
         if self._at_points is None:
             self._at_points = fem.Expression(self.heat.T, self.qmap.points)
         values = dc.eval_expression(self._at_points, self.heat.mesh, self.qmap.cells).reshape(-1)
-        self.qmap.temperature[:] = values
-        self.qmap.temperature_trial[:] = values
+        if self.qmap.thermal:
+            self.qmap.temperature[:] = values
+            self.qmap.temperature_trial[:] = values
+        if self.expansion is not None:
+            T0, a = self.heat.T_initial, self.expansion
+            theta = 1.0 + a * (values - T0)
+            self.qmap.stretch = (1.0 + a * (self.T_points - T0)) / theta if expand else None
+            if not expand:
+                self.theta_reference = theta
+            self.qmap.volume_scale = (theta / self.theta_reference) ** 3
+        self.T_points = values
 
     def state_dict(self) -> dict:
         """The restart state (collective; :mod:`fenics_plast.checkpoint`): the field and the heats
-        (:meth:`HeatConduction.state_dict`), the eqps and von Mises stress of the last heat step keyed by
-        point, t_last."""
+        (:meth:`HeatConduction.state_dict`), the eqps, von Mises stress and temperature of the last heat step
+        and the pending thermal stretch keyed by point, t_last."""
         from fenics_plast.checkpoint import Keyed
         kT, kq = self.keys()
+        stretch = np.ones(self.qmap.n) if self.qmap.stretch is None else self.qmap.stretch
         return dict(**self.heat.state_dict(kT), eqps_last=Keyed(self.plastic.eqps_last.copy(), kq),
-                    tau_last=Keyed(self.plastic.tau_last.copy(), kq), t_last=self.t_last)
+                    tau_last=Keyed(self.plastic.tau_last.copy(), kq), T_points=Keyed(self.T_points.copy(), kq),
+                    stretch=Keyed(stretch.copy(), kq), theta_reference=Keyed(self.theta_reference.copy(), kq),
+                    t_last=self.t_last)
 
     def load_state(self, d) -> None:
         """Restore :meth:`state_dict` (collective: CheckpointError on every rank for another mesh)."""
         from fenics_plast import checkpoint as ck
         kT, kq = self.keys()
         self.heat.load_state(d, kT)
-        why, eqps, tau = None, None, None
+        why, rows = None, None
         try:
-            eqps, tau = d["eqps_last"].take(kq), d["tau_last"].take(kq)
+            rows = {k: np.asarray(d[k].take(kq), dtype=float)
+                    for k in ("eqps_last", "tau_last", "T_points", "stretch", "theta_reference")}
         except ck.CheckpointError as e:
             why = str(e)
         ck.raise_on_any(self.heat.comm, why)
-        self.plastic.eqps_last = np.asarray(eqps, dtype=float)
-        self.plastic.tau_last = np.asarray(tau, dtype=float)
+        self.plastic.eqps_last, self.plastic.tau_last = rows["eqps_last"], rows["tau_last"]
+        self.T_points, self.theta_reference = rows["T_points"], rows["theta_reference"]
+        if self.expansion is not None:
+            T0, a = self.heat.T_initial, self.expansion
+            self.qmap.stretch = rows["stretch"]
+            self.qmap.volume_scale = ((1.0 + a * (self.T_points - T0)) / self.theta_reference) ** 3
         self.t_last = float(d["t_last"])
 
     def keys(self):
@@ -141,5 +168,7 @@ def thermal_coupling(problem, kin, u, qmap, material, facet_tags, groups, Vc=Non
                           np.repeat(cell_material, qmap.nq), qmap.eqps)
     coupled = [(n, pairs[n], c.friction_heat_fraction) for n, c in tool_pairs.items()
                if c.conductance is not None or c.friction > 0.0]
+    alpha = np.array([m.expansion or 0.0 for m in specs])
+    expansion = np.repeat(alpha[cell_material], qmap.nq) if alpha.any() else None
     return ThermalCoupling(heat, plastic, qmap, problem.analysis.duration, coupled,
-                           node_dofs(Vc, heat.V) if coupled else None)
+                           node_dofs(Vc, heat.V) if coupled else None, expansion)

@@ -136,8 +136,9 @@ class HeatConduction:
         self.a_form, self.L_form = fem.form(a), fem.form(L)
         self.residual_form = fem.form(residual)
         self.stored_form = fem.form(rho_c * (self.T - self.T_initial) * w * dx)
-        #: the body's heat capacity int rho_c dV [mJ/K]
-        self.capacity = self.comm.allreduce(fem.assemble_scalar(fem.form(rho_c * w * dx)), op=MPI.SUM)
+        self.rho_c = rho_c
+        self._capacity_form = fem.form(rho_c * w * dx)
+        self.update_capacity()
         self.plastic_form = fem.form(self.plastic_heat * w * dx)
         self.A = fpetsc.create_matrix(self.a_form)
         self.b = fpetsc.create_vector(self.L_form)
@@ -153,6 +154,11 @@ class HeatConduction:
         self.last_rate = {n: 0.0 for n in self.names}     # each boundary's heat rate over the last step [mW]
         self.steps = 0
         self.time = 0.0             # wall time in the steps (assembly, solve, the balance) [s]
+
+    def update_capacity(self) -> None:
+        """:attr:`capacity`, the body's heat capacity int rho_c dV [mJ/K], from :attr:`rho_c` as it stands
+        (collective; after a change of rho_c: a remesh's carried one)."""
+        self.capacity = self.comm.allreduce(fem.assemble_scalar(self._capacity_form), op=MPI.SUM)
 
     # -- the step --------------------------------------------------------------------------------
     def advance(self, dt: float, plastic_heat: np.ndarray | None = None, friction_heat: np.ndarray | None = None
@@ -232,22 +238,27 @@ class HeatConduction:
     # -- restart -----------------------------------------------------------------------------------
     def state_dict(self, keys) -> dict:
         """What a resumed run needs (collective): T's owned values keyed by ``keys`` (the checkpoint's
-        dof keys of :attr:`V`) and the accumulated heats."""
+        dof keys of :attr:`V`), rho_c's keyed by cell (a remesh carries it) and the accumulated heats."""
         from fenics_plast.checkpoint import owned_keyed
-        return dict(temperature=owned_keyed(self.T, keys), heat=dict(self.heat), heat_steps=self.steps)
+        return dict(temperature=owned_keyed(self.T, keys), rho_c=owned_keyed(self.rho_c), heat=dict(self.heat),
+                    heat_steps=self.steps)
 
     def load_state(self, d, keys) -> None:
         """Restore :meth:`state_dict`'s values, matched to this mesh's numbering by ``keys`` (the dof keys
         of :attr:`V`; collective: CheckpointError on every rank when the checkpoint is of another mesh)."""
         from fenics_plast import checkpoint as ck
         n = self.V.dofmap.index_map.size_local
-        why, values = None, None
+        cells = self.rho_c.function_space.dofmap.index_map.size_local
+        why, values, rho_c = None, None, None
         try:
             values = d["temperature"].take(keys[:n])
+            rho_c = d["rho_c"].take(ck.dof_keys(self.rho_c.function_space)[:cells])
         except ck.CheckpointError as e:
             why = str(e)
         ck.raise_on_any(self.comm, why)
         ck.set_owned(self.T, values)
+        ck.set_owned(self.rho_c, rho_c)
+        self.update_capacity()
         self.T_n.x.array[:] = self.T.x.array
         self.heat.update(d["heat"])
         self.steps = int(d["heat_steps"])
