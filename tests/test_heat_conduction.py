@@ -236,20 +236,25 @@ def test_serial_equals_two_ranks(tmp_path):
     assert one["max_T_K"] - one["min_T_K"] > 1.0          # the top face cools: not homogeneous
 
 
+def killed_and_resumed(scene, sets, kill_after, tmp_path):
+    """(summary of the uninterrupted run, summary of the run killed at its ``kill_after``-th checkpoint and
+    resumed), both through the CLI with ``sets``."""
+    whole = run_scene(scene, tmp_path / "whole", *sets)
+    cmd = [sys.executable, "-m", "fenics_plast.cli", "run", str(scene)] + [a for s in sets for a in ("--set", s)]
+    env = dict(os.environ, FENICS_PLAST_PROGRESS="off")
+    r = subprocess.run(cmd + ["--out", str(tmp_path / "run")], capture_output=True, text=True, cwd=ROOT,
+                       env=dict(env, FENICS_PLAST_KILL_AFTER_CHECKPOINTS=str(kill_after)), timeout=300)
+    assert r.returncode == 137, r.stdout[-2000:] + r.stderr[-2000:]
+    r = subprocess.run(cmd + ["--resume", str(tmp_path / "run")], capture_output=True, text=True, cwd=ROOT,
+                       env=env, timeout=300)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    return whole, json.loads((tmp_path / "run" / "summary.json").read_text())
+
+
 def test_kill_and_resume(tmp_path):
     sets = ["output.checkpoint_every=3", "thermal_boundary.top.group=top", "thermal_boundary.top.type=radiation",
             "thermal_boundary.top.emissivity=0.8", "thermal_boundary.top.ambient_temperature=293"]
-    whole = run_scene(SCENES / "heat_compression.toml", tmp_path / "whole", *sets)
-    scene = [sys.executable, "-m", "fenics_plast.cli", "run", str(SCENES / "heat_compression.toml")]
-    scene += [a for s in sets for a in ("--set", s)]
-    env = dict(os.environ, FENICS_PLAST_PROGRESS="off")
-    r = subprocess.run(scene + ["--out", str(tmp_path / "run")], capture_output=True, text=True, cwd=ROOT,
-                       env=dict(env, FENICS_PLAST_KILL_AFTER_CHECKPOINTS="2"), timeout=300)
-    assert r.returncode == 137, r.stdout[-2000:] + r.stderr[-2000:]
-    r = subprocess.run(scene + ["--resume", str(tmp_path / "run")], capture_output=True, text=True, cwd=ROOT,
-                       env=env, timeout=300)
-    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
-    resumed = json.loads((tmp_path / "run" / "summary.json").read_text())
+    whole, resumed = killed_and_resumed(SCENES / "heat_compression.toml", sets, 2, tmp_path)
     assert resumed["resumed_from_checkpoint"] == 6
     for k in ("max_T_K", "min_T_K", "mean_T_K", "stored_heat_J", "plastic_heat_J", "boundary_heat_J"):
         assert resumed[k] == pytest.approx(whole[k], rel=1e-12), k
@@ -333,16 +338,7 @@ def test_hot_upsetting_remeshed_kill_and_resume(tmp_path):
     """Killed at its 5th checkpoint (increment 25, after both remeshes: the checkpoint holds the new mesh and
     its temperature field) and resumed: the same run to the last digit."""
     sets = [*HOT_COARSE, "remeshing.size=1.0", "output.checkpoint_every=5"]
-    whole = run_scene(HOT, tmp_path / "whole", *sets)
-    scene = [sys.executable, "-m", "fenics_plast.cli", "run", str(HOT)] + [a for s in sets for a in ("--set", s)]
-    env = dict(os.environ, FENICS_PLAST_PROGRESS="off")
-    r = subprocess.run(scene + ["--out", str(tmp_path / "run")], capture_output=True, text=True, cwd=ROOT,
-                       env=dict(env, FENICS_PLAST_KILL_AFTER_CHECKPOINTS="5"), timeout=300)
-    assert r.returncode == 137, r.stdout[-2000:] + r.stderr[-2000:]
-    r = subprocess.run(scene + ["--resume", str(tmp_path / "run")], capture_output=True, text=True, cwd=ROOT,
-                       env=env, timeout=300)
-    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
-    resumed = json.loads((tmp_path / "run" / "summary.json").read_text())
+    whole, resumed = killed_and_resumed(HOT, sets, 5, tmp_path)
     assert resumed["resumed_from_checkpoint"] == 25 and resumed["remeshes"] == whole["remeshes"] == 2
     for k in ("die_force_kN", "max_T_K", "min_T_K", "mean_T_K", "stored_heat_J", "plastic_heat_J", "die_heat_J"):
         assert resumed[k] == whole[k], k
