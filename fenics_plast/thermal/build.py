@@ -6,8 +6,10 @@ heat conduction of a body and its coupling to the mechanical increments (issue 3
 
 The coupling is staggered (isothermal split): each converged mechanical increment from t_last to t
 is followed by one backward-Euler heat step over the physical time (t - t_last) x
-``analysis.duration`` [s], with the increment's deformation and its plastic heat
-(:class:`fenics_plast.thermal.plastic_heat.PlasticHeat`). Scene units converted here: density
+``analysis.duration`` [s], with the increment's deformation, its plastic heat
+(:class:`fenics_plast.thermal.plastic_heat.PlasticHeat`), the tool contacts' nodes in contact and
+friction heat; then the field at the points sets the next increment's temperature-dependent flow
+stress and thermal stretch (:meth:`ThermalCoupling.to_points`). Scene units converted here: density
 kg/m^3 (already tonne/mm^3 in the Problem), specific heat J/(kg K) -> mJ/(tonne K) (x 1e6, so that
 rho c is in mJ/(mm^3 K)), conductivity W/(m K) = mW/(mm K) (no factor).
 """
@@ -17,9 +19,9 @@ import numpy as np
 from dolfinx import fem
 
 from fenics_plast import dolfinx_compat as dc
+from fenics_plast.quadrature import von_mises
 from fenics_plast.thermal.boundaries import TYPES
 from fenics_plast.thermal.heat import HeatConduction
-from fenics_plast.quadrature import von_mises
 from fenics_plast.thermal.plastic_heat import PlasticHeat
 
 __all__ = ["ThermalCoupling", "thermal_coupling", "J_PER_KG_K"]
