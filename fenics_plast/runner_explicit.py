@@ -147,7 +147,9 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
     """The explicit solver of ``problem`` with its constraints, loads, contact pairs and initial
     velocity, ready to ``run``: a namespace of ``solver``, ``material``, ``tools`` (name -> tool),
     ``pairs`` (contact name -> pair), ``contact_pairs`` (name -> :class:`fenics_plast.build.ContactPair`:
-    depth, default penalty), ``body`` (:class:`Body`), mesh, cell_tags, facet_tags, groups.
+    depth, default penalty), ``thermal`` (with [thermal]: the heat conduction's
+    :class:`fenics_plast.thermal.build.ThermalCoupling`, stepped at each history row; else None), ``body``
+    (:class:`Body`), mesh, cell_tags, facet_tags, groups.
     ``log``: progress lines (None: quiet)."""
     mesh, ct, ft, groups = mesh_data if mesh_data is not None else read_mesh(problem, comm)
     ana = problem.analysis
@@ -185,14 +187,19 @@ def build_explicit(problem, comm, mesh_data=None, log=None) -> SimpleNamespace:
         if ana.mass_scaling_dt > 0.0 else None
     erosion = SimpleNamespace(stats=cs.erosion_stats, ratio=solver.erosion_ratio, cells=cs.eroded_cells) \
         if solver.erosion_ratio > 0.0 else None
+    thermal = None
+    if problem.thermal is not None:     # a heat step at every history row (on_row), over its time [s]
+        from fenics_plast.thermal.build import thermal_coupling
+        thermal = thermal_coupling(problem, kin, solver.u, solver.qmap, material, ft, groups, duration=1.0)
     body = Body(comm, solver.V, solver.reference_positions, solver.nodal_positions, solver.qmap,
                 cell_regions(ct, groups, solver.qmap.n_owned), tool_force=tool_force_of(problem, pairs, solver.bs),
                 energies=solver.energies, tool_translation=lambda tool, t: tools[tool].translation(t, use_ufl=False),
                 geometry=problem.mesh.geometry, mass_scaling=scaling, erosion=erosion,
                 wall_energy=solver.walls.energy if solver.walls.active else None,
                 contact_force=lambda name: np.asarray(pairs[name].force()),
-                contact_nodes=lambda name: pairs[name].contact_nodes())
-    return SimpleNamespace(solver=solver, material=material, tools=tools, pairs=pairs, contact_pairs=specs,
+                contact_nodes=lambda name: pairs[name].contact_nodes(),
+                heat=None if thermal is None else thermal.heat)
+    return SimpleNamespace(solver=solver, material=material, tools=tools, pairs=pairs, contact_pairs=specs, thermal=thermal,
                            body=body, mesh=mesh, cell_tags=ct, facet_tags=ft, groups=groups)
 
 
@@ -236,6 +243,8 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
             b = run.b = nb
             run.quantities = Quantities(problem.outputs, nb.body, nb.facet_tags, nb.groups)
         b.solver.restart.load_state(saved["solver"])
+        if b.thermal is not None:
+            b.thermal.load_state(saved["thermal"])
         r = saved["runner"]
         quantities = run.quantities
         quantities.history, quantities.times, state["row"] = r["history"], r["times"], r["row"]
@@ -250,13 +259,16 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
             keyed = {"remesh_state": keyed}
         ck.save(s.step_count, solver=s.restart.state_dict(), loop=loop_state,
                 runner=dict(history=run.quantities.history, times=run.quantities.times, row=state["row"],
-                            remesh=entry), **keyed)
+                            remesh=entry), **keyed,
+                **({} if run.b.thermal is None else {"thermal": run.b.thermal.state_dict()}))
 
     scaling = ana.mass_scaling_dt > 0.0
 
     def on_row(s, t):
         # (a stop right after landing on a row time writes the fields only, not a second row)
         quantities, xf = run.quantities, run.xf
+        if run.b.thermal is not None and t > run.b.thermal.t_last:
+            run.b.thermal.after_increment(t)    # (the heat step over the row's time, staggered)
         if not (state.get("stop") and quantities.times and t / US <= quantities.times[-1]):
             cols = quantities.row(t / US)          # the declared outputs, then the automatic ones
             if scaling:
@@ -280,8 +292,12 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
         state["fields_t"] = t
         fields_guard(s, f"{problem.name}: fields at t = {t / US:.6g} us")
         run.xf.write_function(s.u, t / US)
-        for f in s.qmap.fields(out=state["fields"]).values():     # eqps, temperature (Johnson-Cook) [K]
-            run.xf.write_function(f, t / US)
+        for name, f in s.qmap.fields(out=state["fields"]).items():     # eqps, temperature (Johnson-Cook) [K]
+            # (with [thermal] the points' temperature of a Johnson-Cook law is the nodal field's, written as such)
+            if name != "temperature" or run.b.thermal is None:
+                run.xf.write_function(f, t / US)
+        if run.b.thermal is not None:
+            run.xf.write_function(run.b.thermal.heat.T, t / US)
         for f in contact_fields(run.b, s.V):
             run.xf.write_function(f, t / US)
         if s.erosion_ratio > 0.0:   # 1 on the eroded cells (a Threshold in ParaView hides them)
@@ -374,6 +390,8 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
                setup_time_s=solver.timings["setup_s"], cells=solver.cells_global, dofs=solver.dofs_global,
                converged=stop is None)
     res.update(quantities.automatic_summary())      # mass scaling, walls, erosion: when the run has them
+    if run.b.thermal is not None:
+        res.update(heat_steps=run.b.thermal.heat.steps, heat_time_s=run.b.thermal.heat.time)
     if remesher is not None:
         from fenics_plast.remeshing.quality import deformed_nodes
         last = remesher.volumes(run.b.mesh, deformed_nodes(solver.u), solver.qmap.degree, solver.qmap.state()["binv"])

@@ -205,7 +205,7 @@ def build_static(problem, comm, mesh_data=None, log=None, progress=None, since=0
     thermal = None
     if problem.thermal is not None:
         from fenics_plast.thermal.build import thermal_coupling
-        thermal = thermal_coupling(problem, kin, s.u, s.qmap, material, ft, groups, Vc, pairs)
+        thermal = thermal_coupling(problem, kin, s.u, s.qmap, material, ft, groups, ana.duration, Vc, pairs)
 
     def tool_translation(tool, t):
         return tools[tool].translation(t, use_ufl=False)

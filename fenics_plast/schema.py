@@ -169,7 +169,7 @@ def _thermal_boundary_table() -> Table:
     keys.update(_gathered(((t.name, t.keys) for t in types), "type"))
     return Table("Thermal boundary conditions (with [thermal]), one table per name, each on a facet group; a "
                  "boundary without one is insulated. Heat into the body counts positive.",
-                 collection=True, discriminator="type", when_analysis=STATIC, keys=keys)
+                 collection=True, discriminator="type", keys=keys)
 
 
 SCHEMA: dict[str, Table] = {
@@ -299,8 +299,8 @@ SCHEMA: dict[str, Table] = {
             "nu": Key("float", REQUIRED, "Poisson's ratio.", "", lo=-1.0, hi=0.5),
             "density": Key("float", OPTIONAL, "Mass density (required in explicit analyses and with [thermal]).",
                            "kg/m³", scale=KG_M3, **_pos()),
-            "conductivity": Key("float", OPTIONAL, "Thermal conductivity k (with [thermal], required there).",
-                                "W/(m K)", **_pos()),
+            "conductivity": Key("float", OPTIONAL, "Thermal conductivity k (with [thermal], required there; 0: "
+                                "the adiabatic limit).", "W/(m K)", **_nonneg()),
             "specific_heat": Key("float", OPTIONAL, "Specific heat c (with [thermal], required there): rho c the "
                                  "heat capacity per volume.", "J/(kg K)", **_pos()),
             "expansion": Key("float", OPTIONAL, "With [thermal]: the linear thermal expansion coefficient alpha: the "
@@ -421,14 +421,15 @@ SCHEMA: dict[str, Table] = {
             "max_remeshes": Key("int", 100, "The run stops with a message after this many remeshes.", **_count()),
         }),
     "thermal": Table(
-        "Heat conduction in the body, coupled to the deformation (static analyses): the temperature is a "
-        "nodal field, advanced by one backward-Euler step after each converged increment over its physical "
-        "time (analysis.duration), heated by the plastic work (materials' taylor_quinney) and friction "
+        "Heat conduction in the body, coupled to the deformation: the temperature is a nodal field, advanced "
+        "by one backward-Euler step after each converged increment (static: over its physical time, "
+        "analysis.duration) or at each history row (explicit: over the row's time), heated by the plastic work (materials' taylor_quinney) and friction "
         "(contact pairs' friction_heat_fraction), exchanging heat with tools (contact pairs' conductance, "
         "tools' temperature) and through the [thermal_boundary] conditions (elsewhere insulated); a "
-        "Johnson-Cook flow stress takes the field's temperature. Needs analysis.duration and each "
-        "material's density, conductivity and specific_heat. Absent: no heat equation is assembled.",
-        when_analysis=STATIC, keys={
+        "Johnson-Cook flow stress takes the field's temperature. Needs each "
+        "material's density, conductivity and specific_heat (static: and analysis.duration). Explicit analyses: "
+        "no tool contact heat, thermal expansion or [remeshing] with it yet. Absent: no heat equation is "
+        "assembled.", keys={
             "initial_temperature": Key("float", REQUIRED, "Temperature of the body at t = 0.", "K", lo=0.0),
         }),
     "thermal_boundary": _thermal_boundary_table(),

@@ -417,9 +417,17 @@ def _thermal_checks(t: dict[str, Any], v: _Validator):
                     v.fail(f"materials.{n}.{k} is given but there is no [thermal] table (heat conduction): it "
                            f"would be ignored")
         return
-    if t["analysis"].duration is None:
+    if v.analysis == "static" and t["analysis"].duration is None:
         v.fail("analysis.duration is missing: required by [thermal] (the physical time of the static "
                "analysis, s)")
+    if v.analysis == "explicit":
+        why = ([f"contact.{n} (friction or conductance)" for n, c in t["contact"].items()
+                if c.friction > 0.0 or c.conductance is not None]
+               + [f"materials.{n}.expansion" for n, m in t["materials"].items() if m.get("expansion")]
+               + (["[remeshing]"] if t.get("remeshing") is not None else []))
+        if why:
+            v.fail(f"thermal: explicit runs with [thermal] take no heat at tool contacts, thermal expansion or "
+                   f"remeshing yet (not built): {', '.join(why)}")
     for n, m in t["materials"].items():
         for k, unit in (("density", "kg/m³"), ("conductivity", "W/(m K)"), ("specific_heat", "J/(kg K)")):
             if m.get(k) is None:

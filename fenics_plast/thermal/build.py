@@ -1,7 +1,7 @@
 """A scene's ``[thermal]``, ``[thermal_boundary.<name>]`` and materials' thermal keys turned into the
 heat conduction of a body and its coupling to the mechanical increments (issue 37).
 
->>> coupling = thermal_coupling(problem, kin, u, qmap, material, facet_tags, groups)
+>>> coupling = thermal_coupling(problem, kin, u, qmap, material, facet_tags, groups, duration)
 >>> coupling.after_increment(t)     # t: the converged pseudo-time; one heat step over (t - t_last) duration
 
 The coupling is staggered (isothermal split): each converged mechanical increment from t_last to t
@@ -144,11 +144,14 @@ def node_dofs(V_nodes, V) -> np.ndarray:
     return out
 
 
-def thermal_coupling(problem, kin, u, qmap, material, facet_tags, groups, Vc=None, pairs=None) -> ThermalCoupling:
+def thermal_coupling(problem, kin, u, qmap, material, facet_tags, groups, duration, Vc=None, pairs=None
+                     ) -> ThermalCoupling:
     """The heat conduction of ``problem``'s body on ``kin``'s mesh, coupled to the mechanical solver's
     displacement ``u`` (UFL) and quadrature state ``qmap``; ``material``: the body's (a Material, or a
     MaterialRegions whose materials are the scene's in its order, :func:`fenics_plast.build.body_material`);
-    ``pairs``: the built contact pairs by name, ``Vc`` the displacement's CG1 space (their nodes')."""
+    ``duration`` [s]: the physical time of a unit of the caller's time (static: analysis.duration, of the
+    pseudo-time; explicit: 1, its time is in seconds); ``pairs``: the built contact pairs by name, ``Vc`` the
+    displacement's CG1 space (their nodes')."""
     mesh = kin.mesh
     n_owned = mesh.topology.index_map(mesh.topology.dim).size_local
     specs = list(problem.materials.values())
@@ -172,5 +175,5 @@ def thermal_coupling(problem, kin, u, qmap, material, facet_tags, groups, Vc=Non
                if c.conductance is not None or c.friction > 0.0]
     alpha = np.array([m.expansion or 0.0 for m in specs])
     expansion = np.repeat(alpha[cell_material], qmap.nq) if alpha.any() else None
-    return ThermalCoupling(heat, plastic, qmap, problem.analysis.duration, coupled,
+    return ThermalCoupling(heat, plastic, qmap, duration, coupled,
                            node_dofs(Vc, heat.V) if coupled else None, expansion)
