@@ -1,6 +1,7 @@
 """Heat conduction's cost (issue 37): tests/scenes/heat_compression.toml (a cylinder upset 30 %, plastic
 heating, here with a convecting top face) on a finer mesh, with [thermal] and without it (the same scene,
-its thermal table, keys, boundaries and outputs taken out: the isothermal run).
+its thermal table, keys, boundaries and outputs taken out: the isothermal run); and the explicit
+Johnson-Cook Taylor bar (demos/taylor_bar_jc.toml) adiabatic and with [thermal] at conductivity 0.
 
     python benchmarks/bench_thermal.py [--cells 32] [--increments 20] [--repeats 3] [--out results/bench_thermal]
 
@@ -73,6 +74,24 @@ def main() -> None:
     s = results["thermal"][0]
     print(f"thermal run: dT mean {s['mean_T_K'] - 293.0:.3f} K, max {s['max_T_K'] - 293.0:.3f} K, min "
           f"{s['min_T_K'] - 293.0:.3f} K, heat balance error {s['heat_balance_error']:.2e}")
+    explicit(a.out, a.repeats)
+
+
+def explicit(out: Path, repeats: int) -> None:
+    """The Johnson-Cook Taylor bar (demos/taylor_bar_jc.toml): its adiabatic run against [thermal] at
+    conductivity 0 (a heat step per history row): the step loop's time, the heat steps' and the results."""
+    scene = ROOT / "demos" / "taylor_bar_jc.toml"
+    quiet = ["output.plots=false", "output.xdmf=false"]
+    field = quiet + ["thermal.initial_temperature=294", "materials.copper.conductivity=0",
+                     "materials.copper.specific_heat=383"]
+    runs = {name: [run(scene, out / f"taylor_{name}", sets) for _ in range(repeats)]
+            for name, sets in (("adiabatic", quiet), ("field", field))}
+    loop = {n: statistics.median(r["step_loop_time_s"] for r in rs) for n, rs in runs.items()}
+    heat = statistics.median(r["heat_time_s"] for r in runs["field"])
+    f, a = runs["field"][0], runs["adiabatic"][0]
+    print(f"explicit Taylor bar: step loop adiabatic {loop['adiabatic']:.3f} s, with the field {loop['field']:.3f} s "
+          f"(median of {repeats}), {f['heat_steps']} heat steps {heat:.3f} s; field / adiabatic: "
+          + ", ".join(f"{k} {f[k] / a[k] - 1:+.2e}" for k in ("length_mm", "radius_mm", "max_temperature_K")))
 
 
 if __name__ == "__main__":

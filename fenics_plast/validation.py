@@ -538,7 +538,7 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
                       if column_count[n] == 1 and not getattr(kind(o.quantity), "DERIVED", False)]
     ctx = dict(tools=tools, contacts=t["contact"], explicit=explicit, symbols=single_columns, end=analysis_end(t),
                loads=[n for n, b in t["boundary"].items() if b.type in ("traction", "pressure")],
-               thermal=t.get("thermal") is not None)
+               thermal=t.get("thermal") is not None, thermal_boundaries=tuple(t["thermal_boundary"]))
     for n, o in t["outputs"].items():
         d = f"outputs.{n}"
         _kind_check(o, "check", d, ctx, v)

@@ -347,6 +347,8 @@ def check_hot(s, plastic_tolerance):
     assert s["plastic_heat_J"] == pytest.approx(0.9 * s["plastic_dissipation_J"], rel=plastic_tolerance)
     assert 573.0 < s["min_T_K"] < s["mean_T_K"] < 1373.0 < s["max_T_K"] < 1450.0
     assert s["die_heat_J"] > 0.0 and s["boundary_heat_J"] < -s["die_heat_J"] and s["friction_heat_J"] > 0.0
+    each = s["die_heat_J"] + s["die_side_heat_J"] + s["air_heat_J"] + s["glow_heat_J"]    # each boundary's
+    assert each == pytest.approx(-s["boundary_heat_J"], rel=1e-9) and s["glow_heat_J"] > s["air_heat_J"] > 0.0
 
 
 def test_hot_upsetting_coarse(tmp_path):
@@ -414,6 +416,7 @@ BASE = (SCENES / "heat_compression.toml").read_text().replace('"../../meshes/', 
     (lambda t: t + '\n[tools.die]\nshape = "plane"\npoint = [0.0, 5.0]\nnormal = [0.0, -1.0]\n'
      '[contact.die]\ntool = "die"\ngroup = "top"\nconductance = 1e4\n', "tools.die.temperature"),
     (lambda t: t + '\n[outputs.q]\nquantity = "tool_heat"\ncontact = "nothing"\n', "outputs.q.contact"),
+    (lambda t: t + '\n[outputs.q]\nquantity = "boundary_heat"\nboundary = "nothing"\n', "outputs.q.boundary"),
     (lambda t: t.replace('law = "linear"\nyield_stress = 300.0\nmodulus = 300.0',
                          'law = "johnson_cook"\nA = 300.0\nB = 300.0\nn = 0.5\nC = 0.01\nm = 1.0\n'
                          'melting_temperature = 1800.0\nroom_temperature = 293.0\nspecific_heat = 400.0'),
