@@ -73,6 +73,8 @@ def remeshed(problem, comm, b, remesher, reason, quantities, build, log=None, pr
     q = remesher.quality(nb.mesh, None)
     rec.new_quality = remesher.fresh = (q.min_scaled_jacobian, q.max_angle_deg)
     s.close()
+    if b.thermal is not None:
+        b.thermal.heat.close()
     return nb, rec, before
 
 
@@ -148,6 +150,8 @@ def resumed_build(problem, comm, b, saved, remesher, build, log, progress) -> Si
     from fenics_plast.remeshing.resume import restore_u_before, resumed_mesh
     new, entry = resumed_mesh(comm, saved, remesher)
     b.solver.close()
+    if b.thermal is not None:
+        b.thermal.heat.close()
     nb = build(problem, comm, tuple(new), log=log, progress=progress, since=float(entry["since"]),
                penalties=entry["penalties"])
     nb.since = float(entry["since"])

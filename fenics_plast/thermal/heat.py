@@ -48,6 +48,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from fenics_plast import dolfinx_compat as dc
+from fenics_plast.errors import RunError
 
 __all__ = ["HeatConduction"]
 
@@ -155,6 +156,11 @@ class HeatConduction:
         self.steps = 0
         self.time = 0.0             # wall time in the steps (assembly, solve, the balance) [s]
 
+    def close(self) -> None:
+        """Free the PETSc objects now, on every rank at the same point (a replaced mesh's; collective)."""
+        for obj in (self.ksp, self.A, self.b, self.r):
+            obj.destroy()
+
     def update_capacity(self) -> None:
         """:attr:`capacity`, the body's heat capacity int rho_c dV [mJ/K], from :attr:`rho_c` as it stands
         (collective; after a change of rho_c: a remesh's carried one)."""
@@ -188,9 +194,12 @@ class HeatConduction:
         fpetsc.set_bc(self.b, self.bcs)
         x = dc.petsc_vec(self.T)
         self.ksp.solve(self.b, x)
-        if self.ksp.getConvergedReason() < 0:
-            raise RuntimeError(f"heat conduction: the linear solve failed (KSP reason {self.ksp.getConvergedReason()})")
         self.T.x.scatter_forward()
+        failed = self.ksp.getConvergedReason() < 0 or not np.isfinite(self.T.x.array).all()
+        if self.comm.allreduce(failed, op=MPI.LOR):
+            raise RunError(f"heat conduction: the heat step of {dt:.4g} s failed (KSP reason "
+                           f"{self.ksp.getConvergedReason()}, or a temperature that is not finite): check the "
+                           f"materials' conductivity and specific_heat and the thermal boundaries' values")
         self._account()
         self.steps += 1
         self.time += time.perf_counter() - start
