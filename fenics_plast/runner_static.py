@@ -45,7 +45,8 @@ def _prescribed(value, t_ramp, since=0.0):
         return 1.0 if t_ramp is None else min(float(t) / t_ramp, 1.0)
     if value.constant is not None:
         c = float(value.constant)
-        return lambda X, t: np.full(X.shape[1], c * (factor(t) - factor(since)))
+        base = factor(since) if since > 0.0 else 0.0      # (from the reference: 0, whatever the amplitude)
+        return lambda X, t: np.full(X.shape[1], c * (factor(t) - base))
     if since > 0.0:
         def at(t):
             return float(value.evaluate(t=t)) * factor(t)

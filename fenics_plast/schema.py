@@ -380,6 +380,10 @@ SCHEMA: dict[str, Table] = {
                                "h of the contact: the nodes in contact exchange q = h (T_tool - T) with the tool "
                                "(tools.<tool>.temperature); absent: no heat crosses the contact.", "W/(m² K)",
                                scale=W_M2, **_nonneg()),
+            "conductance_pressure": Key("float", OPTIONAL, "With a conductance: the contact pressure p_c at and above "
+                                        "which the conductance is full; below it h = conductance x p / p_c (the "
+                                        "real contact area grows with the pressure); absent: h does not depend "
+                                        "on the pressure.", "MPa", **_pos()),
             "friction_heat_fraction": Key("float", 0.5, "With [thermal]: the share of the friction's dissipation "
                                           "that heats the body (the rest goes into the tool).", "", lo=0.0,
                                           lo_open=False, hi=1.0, hi_open=False),

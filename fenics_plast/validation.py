@@ -445,6 +445,8 @@ def _thermal_checks(t: dict[str, Any], v: _Validator):
         if c.get("master") is not None and (c.friction > 0.0 or c.conductance is not None):
             v.fail(f"contact.{n}: heat between two facet groups of the body (friction or conductance with "
                    f"[thermal]) is not built yet: contact.{n}.master with friction > 0 or a conductance")
+        if c.conductance_pressure is not None and c.conductance is None:
+            v.fail(f"contact.{n}.conductance_pressure is given without contact.{n}.conductance: it would be ignored")
         if c.conductance is not None and c.get("tool") is not None and t["tools"][c.tool].get("temperature") is None:
             v.fail(f"tools.{c.tool}.temperature is missing: required by contact.{n}.conductance (the tool's "
                    f"temperature) [K]")

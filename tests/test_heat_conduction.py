@@ -20,7 +20,8 @@
    (measured 343.0021: the bar is 1e-4 shorter) and the heat into the tool 250 mW per mm^2 (to 1e-4); a
    block slid 1 mm on a tool at Coulomb 0.3 (tests/scenes/sliding_block_on_tool.toml): friction heat in
    the body half of mu F_N x 1 mm (measured -0.10 %, the stick's elastic slip and the first sliding
-   increment).
+   increment); with conductance_pressure twice the contact pressure, the steady state of half the
+   conductance (to 6e-5).
 4. Serial = 2 ranks; a run killed after its 2nd checkpoint and resumed ends as the uninterrupted one.
 5. Thermal expansion (F = F_e F_theta F_p): a cylinder heated 100 K grows by 1 + alpha dT, stress-free,
    to round-off; held between planes, the finite-strain uniaxial force to 1e-10.
@@ -162,6 +163,21 @@ def test_contact_conductance_steady_state(tmp_path):
     assert s["min_T_K"] == pytest.approx(293.0 + q / 5.0, rel=1e-4)
     assert s["anvil_heat_W"] == pytest.approx(q * 1e-3, rel=1e-3)
     assert s["heat_balance_error"] < 1e-10 and s["anvil_heat_J"] > 0.0
+
+
+def test_pressure_dependent_conductance(tmp_path):
+    """The same bar with conductance_pressure twice its contact pressure (18.58 MPa, reached at 5 s and held):
+    h halves, so the steady flux is 100 / (L / k + 2 / h) = 166.7 mW/mm^2 and the face 293 + 166.7 / 2.5 K."""
+    sets = ['boundary.press.value={ t = [0.0, 0.05, 1.0], value = [0.0, -0.001, -0.001] }',
+            "outputs.p.quantity=contact_pressure", "outputs.p.contact=anvil"]
+    p = run_scene(SCENES / "heat_contact.toml", tmp_path / "p", *sets)["p_MPa"]
+    s = run_scene(SCENES / "heat_contact.toml", tmp_path / "h", *sets, f"contact.anvil.conductance_pressure={2 * p!r}")
+    q = 100.0 / (10.0 / K + 2.0 / 5.0)
+    print(f"\nconductance at half: face {s['min_T_K']:.6f} K against {293.0 + q / 2.5:.6f}, "
+          f"{s['anvil_heat_W']:.6f} W against {q * 1e-3:.6f}")
+    assert s["p_MPa"] == pytest.approx(p, rel=1e-9)
+    assert s["min_T_K"] == pytest.approx(293.0 + q / 2.5, rel=1e-4)
+    assert s["anvil_heat_W"] == pytest.approx(q * 1e-3, rel=1e-3)
 
 
 SLIDE = ["analysis.duration=1", "thermal.initial_temperature=293", "outputs.heat.quantity=heat", "outputs.heat.heat=all",

@@ -77,3 +77,17 @@ def test_amplitude_step_applies_the_value_in_full(tmp_path):
     assert h["time"][1] > 0.0
     np.testing.assert_allclose(h["inner_displacement_mm"][1:], d, rtol=1e-12)
     assert h["inner_displacement_mm"][0] == 0.0
+
+
+def test_amplitude_step_of_a_constant(tmp_path):
+    """A constant displacement with amplitude "step" (tests/scenes/bar.toml's grip, 0.05 mm, elastic): in full
+    from the first increment, as the same value written as an expression that does not ramp (before, a
+    constant's "step" was measured from its own value at t = 0 and never applied)."""
+    step = run_scene(ROOT / "tests" / "scenes" / "bar.toml", tmp_path / "step", "boundary.grip.value=0.05",
+                     "boundary.grip.amplitude=step", "analysis.increments=4", "output.xdmf=false")
+    expr = run_scene(ROOT / "tests" / "scenes" / "bar.toml", tmp_path / "expr", "boundary.grip.value=0.05 + 0 * t",
+                     "analysis.increments=4", "output.xdmf=false")
+    h_step, h_expr = history(tmp_path / "step"), history(tmp_path / "expr")
+    assert h_step["force_N"][1] > 0.0
+    assert np.allclose(h_step["force_N"], h_expr["force_N"], rtol=1e-12, atol=1e-9)
+    assert step["force_N"] == pytest.approx(expr["force_N"], rel=1e-12)

@@ -33,9 +33,10 @@ J_PER_KG_K = 1e6
 class ThermalCoupling:
     """The heat conduction of a body (``heat``) and what feeds it after each converged increment, over the
     physical time (pseudo-time x ``duration`` [s]): the plastic heat of the increment (``plastic``), and for
-    each contact pair with a tool (``contacts``: [(name, pair, friction_heat_fraction)], the pairs of
-    :func:`fenics_plast.runner_static.add_contact`) which nodes touch the tool (the conductance's chi) and the
-    share of the friction's dissipation that heats the body. ``node_dofs``: the temperature dof of each
+    each contact pair with a tool (``contacts``: [(name, pair, friction_heat_fraction, conductance_pressure or
+    None)], the pairs of :func:`fenics_plast.runner_static.add_contact`) which nodes touch the tool (the
+    conductance's chi: 1, or p / conductance_pressure up to 1) and the share of the friction's dissipation
+    that heats the body. ``node_dofs``: the temperature dof of each
     node (block) of the displacement's CG1 space."""
 
     def __init__(self, heat: HeatConduction, plastic: PlasticHeat, qmap, duration: float, contacts=(),
@@ -58,13 +59,14 @@ class ThermalCoupling:
         tau_eq = von_mises(self.qmap.tau_values) if self.plastic.needs_stress else None
         q = self.plastic.step(self.qmap.eqps, tau_eq)
         friction = np.zeros(self.heat.V.dofmap.index_map.size_local) if self.contacts else None
-        for name, pair, fraction in self.contacts:
+        for name, pair, fraction, full_pressure in self.contacts:
             nodes = pair.contact_nodes()
             dofs = self.node_dofs[nodes.nodes]
             chi = self.heat.in_contact.get(name)
-            if chi is not None:
+            if chi is not None:             # 1 in contact, or p / p_c up to 1 with a conductance_pressure
                 chi.x.array[:] = 0.0
-                chi.x.array[dofs] = (nodes.g < 0.0).astype(float)
+                chi.x.array[dofs] = ((nodes.g < 0.0).astype(float) if full_pressure is None
+                                     else np.minimum(nodes.p / full_pressure, 1.0))
                 chi.x.scatter_forward()
             if pair.friction > 0.0:
                 np.add.at(friction, dofs, fraction * pair.friction_dissipation())
@@ -171,7 +173,7 @@ def thermal_coupling(problem, kin, u, qmap, material, facet_tags, groups, durati
     heat = HeatConduction(kin, u, rho_c, k, problem.thermal.initial_temperature, boundaries, facet_tags, contacts)
     plastic = PlasticHeat([(m, spec.taylor_quinney) for m, spec in zip(materials, specs)],
                           np.repeat(cell_material, qmap.nq), qmap.eqps)
-    coupled = [(n, pairs[n], c.friction_heat_fraction) for n, c in tool_pairs.items()
+    coupled = [(n, pairs[n], c.friction_heat_fraction, c.conductance_pressure) for n, c in tool_pairs.items()
                if c.conductance is not None or c.friction > 0.0]
     alpha = np.array([m.expansion or 0.0 for m in specs])
     expansion = np.repeat(alpha[cell_material], qmap.nq) if alpha.any() else None

@@ -65,7 +65,7 @@ class HeatConduction:
     facet_tags : the mesh's facet tags.
     contacts : [(name, tag, h [mW/(mm^2 K)], T_tool [K])]: contact with a rigid isothermal tool over the facets
         tagged ``tag``, q = h chi (T_tool - T) into the body, chi (``in_contact[name]``, a Q1 Function the caller
-        sets before each step) 1 at the nodes in contact, 0 elsewhere.
+        sets before each step) 1 at the nodes in contact (or less: a pressure-dependent conductance), 0 elsewhere.
     """
 
     def __init__(self, kin, u, rho_c, conductivity, initial_temperature: float, boundaries, facet_tags,
