@@ -400,7 +400,8 @@ def _remeshing_checks(t: dict[str, Any], v: _Validator, geometry: str):
 def _thermal_checks(t: dict[str, Any], v: _Validator):
     """[thermal] and what it needs: physical time, each material's heat capacity and conductivity, the tool's
     temperature of a pair with a conductance; a Johnson-Cook law's heat keys the material's (its points take
-    the field's temperature); not yet with heat between two facet groups of the body. Thermal keys without [thermal] would be ignored: refused."""
+    the field's temperature); not yet friction heat or a pressure-dependent conductance between two facet
+    groups of the body. Thermal keys without [thermal] would be ignored: refused."""
     thermal = t.get("thermal")
     if thermal is None:
         for n, c in t["contact"].items():
@@ -442,9 +443,12 @@ def _thermal_checks(t: dict[str, Any], v: _Validator):
                     v.fail(f"materials.{n}.hardening.{k} = {_fmt(getattr(h, k))} differs from materials.{n}.{k} = "
                            f"{_fmt(m.get(k))}: with [thermal] they are one property of the material")
     for n, c in t["contact"].items():
-        if c.get("master") is not None and (c.friction > 0.0 or c.conductance is not None):
-            v.fail(f"contact.{n}: heat between two facet groups of the body (friction or conductance with "
-                   f"[thermal]) is not built yet: contact.{n}.master with friction > 0 or a conductance")
+        if c.get("master") is not None and c.friction > 0.0:
+            v.fail(f"contact.{n}: friction heat between two facet groups of the body is not built yet: "
+                   f"contact.{n}.master with friction > 0 and [thermal]")
+        if c.get("master") is not None and c.conductance_pressure is not None:
+            v.fail(f"contact.{n}.conductance_pressure: a pressure-dependent conductance between two facet groups "
+                   f"of the body is not built yet")
         if c.conductance_pressure is not None and c.conductance is None:
             v.fail(f"contact.{n}.conductance_pressure is given without contact.{n}.conductance: it would be ignored")
         if c.conductance is not None and c.get("tool") is not None and t["tools"][c.tool].get("temperature") is None:

@@ -22,6 +22,8 @@
    the body half of mu F_N x 1 mm (measured -0.10 %, the stick's elastic slip and the first sliding
    increment); with conductance_pressure twice the contact pressure, the steady state of half the
    conductance (to 6e-5).
+   Two bodies in contact (two facet groups of one mesh, a conductance between them): the steady flux of the
+   series resistance L/k + 1/h + L/k to 1e-3 (measured 9e-5), serial = 2 ranks.
 4. Serial = 2 ranks; a run killed after its 2nd checkpoint and resumed ends as the uninterrupted one.
 5. Thermal expansion (F = F_e F_theta F_p): a cylinder heated 100 K grows by 1 + alpha dT, stress-free,
    to round-off; held between planes, the finite-strain uniaxial force to 1e-10.
@@ -163,6 +165,17 @@ def test_contact_conductance_steady_state(tmp_path):
     assert s["min_T_K"] == pytest.approx(293.0 + q / 5.0, rel=1e-4)
     assert s["anvil_heat_W"] == pytest.approx(q * 1e-3, rel=1e-3)
     assert s["heat_balance_error"] < 1e-10 and s["anvil_heat_J"] > 0.0
+
+
+def test_conductance_between_two_bodies(tmp_path):
+    """Two bars pressed end to end, their far ends at 393 and 293 K, the contact's h equal to each bar's k / L
+    (tests/scenes/heat_two_bars.toml): at steady state 100 / (2 L / k + 1 / h) = 166.7 mW/mm^2 crosses the
+    contact (measured to 9e-5), the body's balance closed (what one bar gives the other takes)."""
+    s = run_scene(SCENES / "heat_two_bars.toml", tmp_path / "tb")
+    q = 100.0 / (2.0 * 10.0 / K + 1.0 / 5.0)
+    print(f"\ntwo bodies: {s['interface_heat_W']:.7f} W across the contact against {q * 1e-3:.7f}")
+    assert s["interface_heat_W"] == pytest.approx(q * 1e-3, rel=1e-3)       # from the hot upper bar down
+    assert s["heat_balance_error"] < 1e-10
 
 
 def test_pressure_dependent_conductance(tmp_path):
@@ -407,6 +420,15 @@ def test_hot_upsetting_remeshed_kill_and_resume(tmp_path):
 
 
 @needs_mpirun
+def test_two_bodies_serial_equals_two_ranks(tmp_path):
+    sets = ("analysis.increments=5", "analysis.max_increment=0.2", "analysis.duration=20")
+    one = run_scene(SCENES / "heat_two_bars.toml", tmp_path / "one", *sets)
+    two = run_scene(SCENES / "heat_two_bars.toml", tmp_path / "two", *sets, np_ranks=2)
+    for k in ("interface_heat_J", "interface_heat_W", "stored_heat_J", "boundary_heat_J"):
+        assert two[k] == pytest.approx(one[k], rel=1e-8), k
+
+
+@needs_mpirun
 def test_hot_upsetting_serial_equals_two_ranks(tmp_path):
     one = run_scene(HOT, tmp_path / "one", *HOT_COARSE)
     two = run_scene(HOT, tmp_path / "two", *HOT_COARSE, np_ranks=2)
@@ -431,7 +453,7 @@ BASE = (SCENES / "heat_compression.toml").read_text().replace('"../../meshes/', 
      "thermal_boundary.x.film_coefficient"),
     (lambda t: t + '\n[tools.die]\nshape = "plane"\npoint = [0.0, 5.0]\nnormal = [0.0, -1.0]\n'
      '[contact.die]\ntool = "die"\ngroup = "top"\nconductance = 1e4\n', "tools.die.temperature"),
-    (lambda t: t + '\n[outputs.q]\nquantity = "tool_heat"\ncontact = "nothing"\n', "outputs.q.contact"),
+    (lambda t: t + '\n[outputs.q]\nquantity = "contact_heat"\ncontact = "nothing"\n', "outputs.q.contact"),
     (lambda t: t + '\n[outputs.q]\nquantity = "boundary_heat"\nboundary = "nothing"\n', "outputs.q.boundary"),
     (lambda t: t.replace('law = "linear"\nyield_stress = 300.0\nmodulus = 300.0',
                          'law = "johnson_cook"\nA = 300.0\nB = 300.0\nn = 0.5\nC = 0.01\nm = 1.0\n'

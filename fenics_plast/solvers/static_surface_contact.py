@@ -230,6 +230,20 @@ class SurfaceContactTerm:
         return ContactNodes(self.X + self.solver.w.x.array[self.vmap[self.dofs]], self.g.copy(), self.p.copy(),
                             self.area, self.dofs[:, 0] // self.dim, (self.g < 0.0) & (self.slip > 0.0))
 
+    def conduction_links(self):
+        """Where the pair's owned slave nodes touch the master surface now, for a heat conductance between the
+        two bodies (collective: :meth:`evaluate`): (slave blocks (m,) of the displacement's CG1 space, their
+        tributary areas (m,) [mm^2], the master nodes (m, k) as rows of the surface's vertex list
+        (:meth:`~fenics_plast.solvers.body_surface.BodySurface.element_nodes`), their weights (m, k) in the
+        master point: the facet's, 3-D the centre's quarter to each corner of its quadrilateral), m the nodes
+        in contact (g < 0)."""
+        self.evaluate()
+        on = np.flatnonzero(self.g < 0.0)
+        w = self.weights[on]
+        if self.surface.to_facet_vertices is not None:          # 3-D: two corners, then the centre's four
+            w = np.concatenate([w[:, :2], np.repeat(0.25 * w[:, 2:3], 4, axis=1)], axis=1)
+        return self.dofs[on, 0] // self.dim, self.area[on], self.surface.element_nodes(self.facet[on]), w
+
     def pressures(self):
         """(positions (n, dim) [mm], p (n,) [MPa]) of this rank's slave nodes at the last residual."""
         u = self.solver.w.x.array[self.vmap]

@@ -20,6 +20,7 @@ from dolfinx import fem
 
 from fenics_plast import dolfinx_compat as dc
 from fenics_plast.quadrature import von_mises
+from fenics_plast.thermal.body_conductance import BodyConductance
 from fenics_plast.thermal.boundaries import TYPES
 from fenics_plast.thermal.heat import HeatConduction
 from fenics_plast.thermal.plastic_heat import PlasticHeat
@@ -40,10 +41,14 @@ class ThermalCoupling:
     node (block) of the displacement's CG1 space."""
 
     def __init__(self, heat: HeatConduction, plastic: PlasticHeat, qmap, duration: float, contacts=(),
-                 node_dofs=None, expansion=None):
+                 node_dofs=None, expansion=None, bodies=()):
         self.heat, self.plastic, self.qmap = heat, plastic, qmap
         self.duration = float(duration)
         self.contacts, self.node_dofs = list(contacts), node_dofs
+        self.bodies = list(bodies)              # BodyConductance of the pairs between two facet groups
+        for b in self.bodies:
+            heat.exchanged.setdefault(b.name, 0.0)
+            heat.exchange_rate.setdefault(b.name, 0.0)
         self.expansion = expansion              # (owned points,) alpha [1/K], or None: no thermal expansion
         self.t_last = 0.0
         self._at_points = None
@@ -70,7 +75,16 @@ class ThermalCoupling:
                 chi.x.scatter_forward()
             if pair.friction > 0.0:
                 np.add.at(friction, dofs, fraction * pair.friction_dissipation())
-        self.heat.advance((t - self.t_last) * self.duration, q, friction)
+        links = None
+        if self.bodies:
+            parts = [b.links() for b in self.bodies]
+            links = (np.concatenate([r for r, _ in parts]), np.concatenate([G for _, G in parts]))
+        dt = (t - self.t_last) * self.duration
+        self.heat.advance(dt, q, friction, links)
+        for b in self.bodies:
+            exchanged = b.exchanged(dt)
+            self.heat.exchanged[b.name] = self.heat.exchanged.get(b.name, 0.0) + exchanged
+            self.heat.exchange_rate[b.name] = exchanged / dt if dt > 0.0 else 0.0
         self.t_last = float(t)
         self.to_points()
 
@@ -168,6 +182,8 @@ def thermal_coupling(problem, kin, u, qmap, material, facet_tags, groups, durati
     k.x.scatter_forward()
     boundaries = [(n, TYPES[b.type], b, groups[b.group][1]) for n, b in problem.thermal_boundary.items()]
     tool_pairs = {n: c for n, c in problem.contact.items() if c.get("tool") is not None and pairs}
+    body_pairs = {n: c for n, c in problem.contact.items()
+                  if c.get("master") is not None and c.conductance is not None and pairs}
     contacts = [(n, groups[c.group][1], c.conductance, problem.tools[c.tool].temperature)
                 for n, c in tool_pairs.items() if c.conductance is not None]
     heat = HeatConduction(kin, u, rho_c, k, problem.thermal.initial_temperature, boundaries, facet_tags, contacts)
@@ -177,5 +193,7 @@ def thermal_coupling(problem, kin, u, qmap, material, facet_tags, groups, durati
                if c.conductance is not None or c.friction > 0.0]
     alpha = np.array([m.expansion or 0.0 for m in specs])
     expansion = np.repeat(alpha[cell_material], qmap.nq) if alpha.any() else None
-    return ThermalCoupling(heat, plastic, qmap, duration, coupled,
-                           node_dofs(Vc, heat.V) if coupled else None, expansion)
+    nodes = node_dofs(Vc, heat.V) if coupled or body_pairs else None
+    bodies = [BodyConductance(n, [pairs[n].forward, pairs[n].backward] if hasattr(pairs[n], "forward") else [pairs[n]],
+                              c.conductance, heat, nodes) for n, c in body_pairs.items()]
+    return ThermalCoupling(heat, plastic, qmap, duration, coupled, nodes, expansion, bodies)

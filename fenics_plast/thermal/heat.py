@@ -142,6 +142,8 @@ class HeatConduction:
         self.update_capacity()
         self.plastic_form = fem.form(self.plastic_heat * w * dx)
         self.A = fpetsc.create_matrix(self.a_form)
+        # (conductance links between two bodies add entries outside the forms' pattern: allowed)
+        self.A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
         self.b = fpetsc.create_vector(self.L_form)
         self.r = fpetsc.create_vector(self.residual_form)
         self.ksp = PETSc.KSP().create(self.comm)
@@ -153,8 +155,19 @@ class HeatConduction:
         self.heat = dict(plastic=0.0, friction=0.0, **{n: 0.0 for n in self.names})
         self._nodal = np.zeros(self.V.dofmap.index_map.size_local)
         self.last_rate = {n: 0.0 for n in self.names}     # each boundary's heat rate over the last step [mW]
+        #: heat passed between two parts of the body through a conductance since t = 0, by pair [mJ] (the
+        #: callers' account: inside the body, not in the balance), and its rate over the last step [mW]
+        self.exchanged, self.exchange_rate = {}, {}
         self.steps = 0
         self.time = 0.0             # wall time in the steps (assembly, solve, the balance) [s]
+
+    def constrained_global(self) -> np.ndarray:
+        """The global dofs of :attr:`V` with a prescribed temperature, all ranks' (sorted; collective)."""
+        imap = self.V.dofmap.index_map
+        owned = np.unique(np.concatenate([dc.bc_dofs(bc) for bc in self.bcs] or [np.zeros(0, dtype=np.int32)]))
+        owned = owned[owned < imap.size_local].astype(np.int32)
+        mine = imap.local_to_global(owned).astype(np.int64)
+        return np.unique(np.concatenate(self.comm.allgather(mine)))
 
     def close(self) -> None:
         """Free the PETSc objects now, on every rank at the same point (a replaced mesh's; collective)."""
@@ -167,11 +180,13 @@ class HeatConduction:
         self.capacity = self.comm.allreduce(fem.assemble_scalar(self._capacity_form), op=MPI.SUM)
 
     # -- the step --------------------------------------------------------------------------------
-    def advance(self, dt: float, plastic_heat: np.ndarray | None = None, friction_heat: np.ndarray | None = None
-                ) -> None:
+    def advance(self, dt: float, plastic_heat: np.ndarray | None = None, friction_heat: np.ndarray | None = None,
+                links=None) -> None:
         """One backward-Euler step of ``dt`` [s] from the present T, the deformation as it stands,
         with ``plastic_heat`` (owned points,) [mJ/mm^3 per reference volume] and ``friction_heat`` (owned
-        dofs of :attr:`V`,) [mJ] at the nodes released over the step (None: none). Collective."""
+        dofs of :attr:`V`,) [mJ] at the nodes released over the step (None: none); ``links``: (rows (m, r)
+        global dofs, -1 left out; G (m, r, r) [mW/K]) conductances between dofs (two bodies in contact,
+        :class:`fenics_plast.thermal.body_conductance.BodyConductance`), dt G added to the matrix. Collective."""
         start = time.perf_counter()
         self.T_n.x.array[:] = self.T.x.array
         self.dt.value = float(dt)
@@ -183,6 +198,12 @@ class HeatConduction:
         self.A.zeroEntries()
         fpetsc.assemble_matrix(self.A, self.a_form, bcs=self.bcs)
         self.A.assemble()
+        if links is not None:
+            rows, G = links
+            if len(rows):
+                rows = np.ascontiguousarray(rows, dtype=PETSc.IntType)
+                self.A.setValuesRCV(rows, rows, np.ascontiguousarray(float(dt) * G), addv=PETSc.InsertMode.ADD)
+            self.A.assemble()
         with self.b.localForm() as loc:
             loc.set(0.0)
         fpetsc.assemble_vector(self.b, self.L_form)
@@ -250,7 +271,7 @@ class HeatConduction:
         dof keys of :attr:`V`), rho_c's keyed by cell (a remesh carries it) and the accumulated heats."""
         from fenics_plast.checkpoint import owned_keyed
         return dict(temperature=owned_keyed(self.T, keys), rho_c=owned_keyed(self.rho_c), heat=dict(self.heat),
-                    heat_steps=self.steps)
+                    exchanged=dict(self.exchanged), heat_steps=self.steps)
 
     def load_state(self, d, keys) -> None:
         """Restore :meth:`state_dict`'s values, matched to this mesh's numbering by ``keys`` (the dof keys
@@ -270,4 +291,5 @@ class HeatConduction:
         self.update_capacity()
         self.T_n.x.array[:] = self.T.x.array
         self.heat.update(d["heat"])
+        self.exchanged.update(d["exchanged"])
         self.steps = int(d["heat_steps"])

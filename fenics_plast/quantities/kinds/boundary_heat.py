@@ -1,7 +1,7 @@
 """boundary_heat: the heat that leaves the body through one thermal boundary (a run with [thermal];
 ``[thermal_boundary.<name>]``): since t = 0 [J] and its rate over the last heat step [W]; positive: the body
 loses heat there (convection and radiation to cooler surroundings, a colder prescribed temperature, a flux
-out). :mod:`tool_heat` is the same for a tool contact's conductance."""
+out). :mod:`contact_heat` is the same for a tool contact's conductance."""
 from __future__ import annotations
 
 from fenics_plast.scene_key import REQUIRED, Key
