@@ -54,8 +54,10 @@ def material_of(spec, field_temperature: float | None = None) -> Material:
     hardening = None
     if h is not None:
         kw = {k: v for k, v in h.to_dict().items() if k != "law"}
-        if field_temperature is not None and "taylor_quinney" in kw:
-            kw.update(taylor_quinney=0.0, initial_temperature=field_temperature)
+        if field_temperature is not None:           # (a temperature-dependent law: the field's; no own heating)
+            kw.update(initial_temperature=field_temperature)
+            if "taylor_quinney" in kw:
+                kw.update(taylor_quinney=0.0)
         # tonne/mm^3: a thermal law's adiabatic heating rho c_p (a law that does not declare it ignores it)
         hardening = Hardening(h.law, density=spec.density, **kw)
     return Material(spec.E, spec.nu, hardening, model=spec.model)

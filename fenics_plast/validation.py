@@ -413,6 +413,10 @@ def _thermal_checks(t: dict[str, Any], v: _Validator):
         if t["thermal_boundary"]:
             v.fail(f"thermal_boundary.{next(iter(t['thermal_boundary']))}: thermal boundaries need a [thermal] table")
         for n, m in t["materials"].items():
+            if m.hardening is not None and m.hardening.law == "hensel_spittel":
+                v.fail(f"materials.{n}.hardening.law = 'hensel_spittel' needs a [thermal] table (its temperature is "
+                       f"the temperature field's, its rate in physical time)")
+        for n, m in t["materials"].items():
             for k in ("conductivity", "specific_heat", "expansion"):
                 if m.get(k) is not None:
                     v.fail(f"materials.{n}.{k} is given but there is no [thermal] table (heat conduction): it "

@@ -29,10 +29,13 @@
    to round-off; held between planes, the finite-strain uniaxial force to 1e-10.
 6. Johnson-Cook with [thermal] (its points at the field's temperature) against its own adiabatic heating:
    first order in the increment, -0.36 % in dT and 0.095 % in force at 40 increments; the rate term on.
-7. Explicit runs: the Johnson-Cook Taylor bar at conductivity 0 against its adiabatic heating (within
+7. Hensel-Spittel (a C45 steel at 1100 C, 0.25/s): the Kirchhoff von Mises stress is the law's flow stress at
+   the points' strain, rate and temperature (isothermal, and heated by its plastic work) to 1e-9; it needs
+   [thermal].
+8. Explicit runs: the Johnson-Cook Taylor bar at conductivity 0 against its adiabatic heating (within
    0.02 % in length, 0.09 % in radius, 0.7 % in max temperature: the nodal field's projection); serial = 2
    ranks; killed and resumed.
-8. Scene rules: [thermal] needs analysis.duration and the materials' thermal keys, a conductance its tool's
+9. Scene rules: [thermal] needs analysis.duration and the materials' thermal keys, a conductance its tool's
    temperature, a Johnson-Cook law the material's heat keys; explicit runs refuse tool contact heat, thermal
    expansion and remeshing with it; thermal keys without [thermal] refused; a scene without [thermal] assembles no heat equation.
 """
@@ -255,6 +258,43 @@ def test_johnson_cook_follows_the_field(tmp_path):
     assert abs(fast["force_kN"]) > abs(slow["force_kN"])          # strain-rate hardening
 
 
+HS = dict(A=1521.3, m1=-0.00269, m2=-0.12651, m3=0.14542, m4=-0.05957, m8=0.000186)    # a C45 steel's
+
+
+def hensel_spittel(eps, rate, T):
+    """The Hensel-Spittel flow stress [MPa] of HS at eqps, rate [1/s], T [K] (m5 = m7 = m9 = 0, above the floors)."""
+    Tc = T - 273.15
+    return (HS["A"] * math.exp(HS["m1"] * Tc) * eps ** HS["m2"] * math.exp(HS["m4"] / eps)
+            * rate ** (HS["m3"] + HS["m8"] * Tc))
+
+
+@pytest.mark.parametrize("beta", [0.0, 0.9], ids=["isothermal", "heated"])
+def test_hensel_spittel(tmp_path, beta):
+    """The upsetting at 1100 C with a Hensel-Spittel law, at a constant true strain rate (the die at
+    5 (exp(-t / 2) - 1) mm over 2 s: 0.25/s): the Kirchhoff von Mises stress at the end is the law's flow
+    stress at the points' eqps, their rate over the last increment and the temperature of the heat step before
+    it (the staggered split; beta 0: 1100 C throughout) to 1e-9 (measured 4e-13)."""
+    text = (SCENES / "heat_compression.toml").read_text().replace('"../../meshes/', f'"{ROOT}/meshes/')
+    text = text.replace('law = "linear"\nyield_stress = 300.0\nmodulus = 300.0\n',
+                        'law = "hensel_spittel"\n' + "".join(f"{k} = {v!r}\n" for k, v in HS.items()))
+    text = text.replace("taylor_quinney = 0.9", f"taylor_quinney = {beta!r}")
+    text = text.replace("initial_temperature = 293.0", "initial_temperature = 1373.15")
+    text = text.replace("value = -1.5", 'value = "5.0 * (exp(-0.5 * t) - 1.0)"')
+    text = text.replace('[outputs.energies]\nquantity = "energy"\nenergy = "all"\n',
+                        '[outputs.mises]\nquantity = "field"\nfield = "von_mises"\n')
+    scene = tmp_path / "hs.toml"
+    scene.write_text(text)
+    s = run_scene(scene, tmp_path / "hs", "analysis.max_increment=0.05", "output.xdmf=false")
+    h = history(tmp_path / "hs")
+    rate = (h["max_eqps"][-1] - h["max_eqps"][-2]) / (h["time_s"][-1] - h["time_s"][-2])
+    expected = hensel_spittel(h["max_eqps"][-1], rate, h["mean_T_K"][-2])
+    print(f"\nHensel-Spittel (beta {beta}): von Mises {s['mises_MPa']:.12g} MPa against {expected:.12g} "
+          f"(eqps {h['max_eqps'][-1]:.6g}, rate {rate:.6g}/s, T {h['mean_T_K'][-2]:.6g} K)")
+    assert rate == pytest.approx(0.25, rel=1e-3)
+    assert s["mises_MPa"] == pytest.approx(expected, rel=1e-9)
+    assert (s["mean_T_K"] > 1373.15 + 1.0) if beta else (s["mean_T_K"] == pytest.approx(1373.15, abs=1e-9))
+
+
 @needs_mpirun
 def test_serial_equals_two_ranks(tmp_path):
     one = run_scene(SCENES / "heat_compression.toml", tmp_path / "one", "mesh.parameters.cells_axial=8",
@@ -463,6 +503,14 @@ BASE = (SCENES / "heat_compression.toml").read_text().replace('"../../meshes/', 
 def test_scene_rules(edit, key):
     with pytest.raises(SceneError, match=key.replace("[", r"\[").replace("]", r"\]")):
         parse_problem(edit(BASE), ROOT / "tests" / "scenes" / "x.toml")
+
+
+def test_hensel_spittel_needs_thermal():
+    text = BASE[:BASE.index("[thermal]")].replace('law = "linear"\nyield_stress = 300.0\nmodulus = 300.0\n',
+                                                  'law = "hensel_spittel"\nA = 1000.0\n')
+    text = text.replace("conductivity = 50.0\n", "").replace("specific_heat = 500.0\n", "")
+    with pytest.raises(SceneError, match="materials.steel.hardening.law = 'hensel_spittel' needs a \\[thermal\\]"):
+        parse_problem(text, SCENES / "x.toml")
 
 
 def test_contact_heat_keys_need_thermal():

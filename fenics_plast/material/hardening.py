@@ -31,9 +31,14 @@ from fenics_plast.hardening_laws import laws
 from fenics_plast.hardening_laws.johnson_cook import (JC_A, JC_B, JC_C, JC_CHI, JC_M, JC_N, JC_RATE0, JC_T0,
                                                       JC_TMELT, JC_TROOM)
 
+from fenics_plast.hardening_laws.hensel_spittel import (CELSIUS, HS_A, HS_EMIN, HS_M1, HS_M2, HS_M3, HS_M4, HS_M5,
+                                                        HS_M7, HS_M8, HS_M9, HS_RMIN, HS_T0)
+
 _LAWS = laws()
-LINEAR, SWIFT, VOCE, TABLE, JOHNSON_COOK = (_LAWS[name].code
-                                            for name in ("linear", "swift", "voce", "table", "johnson_cook"))
+LINEAR, SWIFT, VOCE, TABLE, JOHNSON_COOK, HENSEL_SPITTEL = (
+    _LAWS[name].code for name in ("linear", "swift", "voce", "table", "johnson_cook", "hensel_spittel"))
+#: the parameter holding a temperature-dependent law's initial temperature [K]
+_T0 = {"johnson_cook": JC_T0, "hensel_spittel": HS_T0}
 
 
 @numba.njit(cache=True, fastmath=False)
@@ -94,8 +99,36 @@ def johnson_cook_curve(p, eps_p):
     return s, h
 
 
+@numba.njit(cache=True, fastmath=False)
+def hensel_spittel(p, eps_p, dg, dt, T):
+    """Hensel-Spittel flow stress and its slope in dg [MPa, MPa] at the end of an increment dg = d eps_p over
+    dt [s] (eps_p = eps_n + dg; rate dg / dt, dt <= 0: the minimum rate), at T [K] (hardening_laws.hensel_spittel:
+    the formula, the floors of strain and rate, below which the slope's part is 0)."""
+    Tc = T - CELSIUS
+    e_min, r_min = p[HS_EMIN], p[HS_RMIN]
+    e = eps_p if eps_p > e_min else e_min
+    rate = dg / dt if dt > 0.0 else 0.0
+    r = rate if rate > r_min else r_min
+    ln_s = (math.log(p[HS_A]) + p[HS_M1] * Tc + p[HS_M9] * math.log(Tc) + p[HS_M2] * math.log(e) + p[HS_M4] / e
+            + p[HS_M5] * Tc * math.log(1.0 + e) + p[HS_M7] * e + (p[HS_M3] + p[HS_M8] * Tc) * math.log(r))
+    s = math.exp(ln_s)
+    slope = 0.0
+    if eps_p > e_min:
+        slope += p[HS_M2] / e - p[HS_M4] / (e * e) + p[HS_M5] * Tc / (1.0 + e) + p[HS_M7]
+    if dt > 0.0 and rate > r_min:
+        slope += (p[HS_M3] + p[HS_M8] * Tc) / dg
+    return s, s * slope
+
+
+@numba.njit(cache=True, fastmath=False)
+def hensel_spittel_curve(p, eps_p):
+    """Hensel-Spittel flow stress and slope [MPa] at the minimum rate and the initial temperature T_0: the law's
+    ``flow`` in :func:`flow_stress`."""
+    return hensel_spittel(p, eps_p, 0.0, 0.0, p[HS_T0])
+
+
 #: compiled flow of the laws that declare none (their flow stress needs more than eps_p)
-_OWN_FLOWS = {"johnson_cook": johnson_cook_curve}
+_OWN_FLOWS = {"johnson_cook": johnson_cook_curve, "hensel_spittel": hensel_spittel_curve}
 
 
 @numba.njit(cache=True, fastmath=False)
@@ -167,13 +200,13 @@ class Hardening:
 
     @property
     def thermal(self) -> bool:
-        """True for a law with a temperature state (Johnson-Cook)."""
+        """True for a law with a temperature state (Johnson-Cook, Hensel-Spittel)."""
         return _LAWS[self.law].thermal
 
     @property
     def initial_temperature(self) -> float:
         """Temperature of a virgin point [K] (Johnson-Cook; 0 for the other laws: no temperature)."""
-        return float(self.params[JC_T0]) if self.thermal else 0.0
+        return float(self.params[_T0[self.law]]) if self.thermal else 0.0
 
     def johnson_cook(self, eps_p, rate=0.0, T=None):
         """Johnson-Cook flow stress [MPa] at eps_p, the plastic strain rate ``rate`` [1/s] (below the

@@ -61,7 +61,8 @@ import math
 import numba
 import numpy as np
 
-from .hardening import JC_C, JC_CHI, JC_RATE0, JOHNSON_COOK, LINEAR, flow_stress, jc_softening, jc_strain_rate
+from .hardening import (HENSEL_SPITTEL, JC_C, JC_CHI, JC_RATE0, JOHNSON_COOK, LINEAR, flow_stress, hensel_spittel,
+                        jc_softening, jc_strain_rate)
 
 SEED, ISOCHORIC = 0, 1
 ELASTIC = -1  # hardening code meaning "no plasticity"
@@ -278,6 +279,9 @@ def _end_flow_stress(law, hp, eps_n, dg, dt, T_n, th_n, T_start):
     """
     if law == JOHNSON_COOK:
         return _jc_temperature(hp, eps_n + dg, dg, dt, T_n, th_n, T_start)
+    if law == HENSEL_SPITTEL:           # the increment's temperature fixed (the staggered split of [thermal])
+        sy, h = hensel_spittel(hp, eps_n + dg, dg, dt, T_n)
+        return T_n, sy, h, 0.0
     sy, h = flow_stress(law, hp, eps_n + dg)
     return T_n, sy, h, 0.0
 
@@ -367,6 +371,21 @@ def _return_map_jc(q_tr, eps_n, T_n, dt, mu, hp, yield_tol):
 
 
 @_njit
+def _return_map_hs(q_tr, eps_n, T_n, dt, mu, hp, yield_tol):
+    """Hensel-Spittel return map at the increment's temperature T_n [K]: (dgamma, rr_factor, c). The yield check
+    takes the flow stress at dg = 0 (the minimum rate); from the perfectly plastic estimate, Newton in ln(dg)
+    (the rate term is a power of dg)."""
+    sy_n = hensel_spittel(hp, eps_n, 0.0, dt, T_n)[0]
+    if q_tr - sy_n <= yield_tol * max(sy_n, 1e-300) or q_tr == 0.0:
+        return 0.0, 1.0, 0.0
+    dg = (q_tr - sy_n) / (3.0 * mu)
+    dg, h, _T = _plastic_multiplier(q_tr, mu, dg, dt > 0.0, HENSEL_SPITTEL, hp, eps_n, T_n, dt, 0.0)
+    rr_factor = 1.0 - 3.0 * mu * dg / q_tr
+    c = 6.0 * mu * mu * (1.0 / (3.0 * mu + h) - dg / q_tr)
+    return dg, rr_factor, c
+
+
+@_njit
 def _seed_points(Fu, Bn, eps_n, T_n, lmbda, mu, law, hp, tol, dt, tau, Bout, a, want_tangent, bt, nb, eqps,
                  T_out):
     """Seed model for all points: reads Fu, Bn = binv_n, eps_n (and T_n); writes tau, Bout = binv,
@@ -394,6 +413,9 @@ def _seed_points(Fu, Bn, eps_n, T_n, lmbda, mu, law, hp, tol, dt, tau, Bout, a, 
         if law == JOHNSON_COOK:
             dg, rr_factor, c, T_q = _return_map_jc(q_tr, eps_n[q], T_n[q], dt, mu, hp, tol)
             T_out[q] = T_q
+        elif law == HENSEL_SPITTEL:
+            dg, rr_factor, c = _return_map_hs(q_tr, eps_n[q], T_n[q], dt, mu, hp, tol)
+            T_out[q] = T_n[q]
         else:
             dg, rr_factor, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
         eqps[q] = eps_n[q] + dg
@@ -565,6 +587,9 @@ def _isochoric_series(bt00, bt01, bt02, bt11, bt12, bt22, eps_n, T_n, lmbda, mu,
     if law == JOHNSON_COOK:
         dg, rr_factor, c_mod, T_q = _return_map_jc(q_tr, eps_n[q], T_n[q], dt, mu, hp, tol)
         T_out[q] = T_q
+    elif law == HENSEL_SPITTEL:
+        dg, rr_factor, c_mod = _return_map_hs(q_tr, eps_n[q], T_n[q], dt, mu, hp, tol)
+        T_out[q] = T_n[q]
     else:
         dg, rr_factor, c_mod = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
     eqps[q] = eps_n[q] + dg
@@ -633,6 +658,9 @@ def _isochoric_points(Fu, Bn, eps_n, T_n, lmbda, mu, law, hp, tol, dt, tau, Bout
         if law == JOHNSON_COOK:
             dg, rr_factor, c, T_q = _return_map_jc(q_tr, eps_n[q], T_n[q], dt, mu, hp, tol)
             T_out[q] = T_q
+        elif law == HENSEL_SPITTEL:
+            dg, rr_factor, c = _return_map_hs(q_tr, eps_n[q], T_n[q], dt, mu, hp, tol)
+            T_out[q] = T_n[q]
         else:
             dg, rr_factor, c = _return_map(q_tr, eps_n[q], mu, law, hp, tol)
         eqps[q] = eps_n[q] + dg
