@@ -105,14 +105,19 @@ def checkpointer(problem, output, comm):
                         resume=resume, output=output)
 
 
-def write_final_shape(problem, output, V, positions, qmap):
+def write_final_shape(problem, output, V, positions, qmap, thermal=None):
     """final_shape.csv (deformed cells and the cell means of the written state variables: eqps, and
-    temperature with Johnson-Cook materials) when the scene declares a shape plot; collective."""
+    temperature with Johnson-Cook or Hensel-Spittel materials) when the scene declares a shape plot; with
+    ``thermal`` (a [thermal] run's ThermalCoupling) the temperature is the field's, its cell means at the
+    quadrature points; collective."""
     if not any(p.type == "shape" for p in problem.plots.values()):
         return
     from fenics_plast.plots import cells_table
     table = None
-    for name, fun in qmap.fields().items():
+    fields = qmap.fields()
+    if thermal is not None:
+        fields["temperature"] = qmap.cell_mean(thermal.points_temperature(), name="temperature")
+    for name, fun in fields.items():
         column = cells_table(V, positions, fun, name)
         if table is None:
             table = column

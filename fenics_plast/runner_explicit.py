@@ -413,7 +413,7 @@ def run_explicit(problem, output, comm, mesh_data=None) -> dict:
         if warnings:
             res["warnings"] = warnings
     nonfinite_guard(res, f"{problem.name}: results")
-    write_final_shape(problem, output, solver.V, solver.nodal_positions(), solver.qmap)
+    write_final_shape(problem, output, solver.V, solver.nodal_positions(), solver.qmap, run.b.thermal)
     draw_plots(problem, output)
     if stop is not None:
         res.update(stop.results)

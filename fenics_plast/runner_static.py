@@ -426,7 +426,7 @@ def run_static(problem, output, comm, mesh_data=None) -> dict:
         for name in quantities.profiles:
             if quantities.profiles[name]:
                 output.write_csv(name, quantities.profile_table(name))
-        write_final_shape(problem, output, run.b.Vc, run.b.positions(), run.b.solver.qmap)
+        write_final_shape(problem, output, run.b.Vc, run.b.positions(), run.b.solver.qmap, run.b.thermal)
         draw_plots(problem, output)
 
     t_solve = time.perf_counter()

@@ -569,10 +569,13 @@ def _cross_checks(t: dict[str, Any], v: _Validator):
     # a temperature is the state of the materials of a thermal law only
     thermal = any(m.hardening is not None and laws()[m.hardening.law].thermal for m in mats.values())
     asks = [f"outputs.{n}.field" for n, o in t["outputs"].items() if o.quantity == "field" and o.field == "temperature"]
-    asks += [f"plots.{n}.field" for n, p in t["plots"].items() if p.type == "shape" and p.field == "temperature"]
+    if t.get("thermal") is None:        # (with [thermal] a shape plot takes the temperature field's cell means)
+        asks += [f"plots.{n}.field" for n, p in t["plots"].items() if p.type == "shape" and p.field == "temperature"]
     if asks and not thermal:
         names = " or ".join(repr(law.name) for law in laws().values() if law.thermal)
-        v.fail(f"{asks[0]} = 'temperature' needs a material with a temperature: hardening.law = {names}")
+        v.fail(f"{asks[0]} = 'temperature' needs a material with a temperature: hardening.law = {names}"
+               + (" (the temperature field of [thermal]: quantity = 'temperature')" if t.get("thermal") else
+                  " or a [thermal] table for a shape plot"))
     ends = [s.end for s in t["steps"].values()]
     if len(set(ends)) != len(ends):
         v.fail("steps: two steps have the same end")

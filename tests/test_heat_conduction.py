@@ -146,7 +146,8 @@ def test_slab_cooling_by_convection():
 
 
 def test_plastic_work_heats_the_body(tmp_path):
-    s = run_scene(SCENES / "heat_compression.toml", tmp_path / "hc")
+    s = run_scene(SCENES / "heat_compression.toml", tmp_path / "hc", "plots.shape.type=shape",
+                  "plots.shape.field=temperature")
     rho_c = RHO * C
     dT = s["mean_T_K"] - 293.0
     print(f"\nupset 30 %: dT {dT:.9g} K (max {s['max_T_K'] - 293.0:.9g}, min {s['min_T_K'] - 293.0:.9g}), "
@@ -158,6 +159,8 @@ def test_plastic_work_heats_the_body(tmp_path):
     assert dT == pytest.approx(0.9 * (300.0 * e + 0.5 * 300.0 * e * e) / rho_c, rel=1e-6)
     h = history(tmp_path / "hc")
     assert h["time_s"][-1] == pytest.approx(2.0) and np.all(np.diff(h["mean_T_K"]) > 0.0)
+    shape = np.genfromtxt(tmp_path / "hc" / "final_shape.csv", delimiter=",", names=True)     # the shape plot's
+    assert np.allclose(shape["temperature"], s["mean_T_K"], rtol=1e-12)
 
 
 def test_contact_conductance_steady_state(tmp_path):

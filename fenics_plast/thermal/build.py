@@ -97,9 +97,7 @@ class ThermalCoupling:
         mesh's reference is now (a remesh), no stretch pending."""
         if not (self.qmap.thermal or self.expansion is not None):
             return
-        if self._at_points is None:
-            self._at_points = fem.Expression(self.heat.T, self.qmap.points)
-        values = dc.eval_expression(self._at_points, self.heat.mesh, self.qmap.cells).reshape(-1)
+        values = self.points_temperature()
         if self.qmap.thermal:
             self.qmap.temperature[:] = values
             self.qmap.temperature_trial[:] = values
@@ -111,6 +109,12 @@ class ThermalCoupling:
                 self.theta_reference = theta
             self.qmap.volume_scale = (theta / self.theta_reference) ** 3
         self.T_points = values
+
+    def points_temperature(self) -> np.ndarray:
+        """The temperature field at the owned quadrature points now, (owned points,) [K]."""
+        if self._at_points is None:
+            self._at_points = fem.Expression(self.heat.T, self.qmap.points)
+        return dc.eval_expression(self._at_points, self.heat.mesh, self.qmap.cells).reshape(-1)
 
     def state_dict(self) -> dict:
         """The restart state (collective; :mod:`fenics_plast.checkpoint`): the field and the heats
