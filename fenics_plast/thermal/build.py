@@ -102,13 +102,16 @@ class ThermalCoupling:
             self.qmap.temperature[:] = values
             self.qmap.temperature_trial[:] = values
         if self.expansion is not None:
-            T0, a = self.heat.T_initial, self.expansion
-            theta = 1.0 + a * (values - T0)
-            self.qmap.stretch = (1.0 + a * (self.T_points - T0)) / theta if expand else None
+            theta = self.theta(values)
+            self.qmap.stretch = self.theta(self.T_points) / theta if expand else None
             if not expand:
                 self.theta_reference = theta
             self.qmap.volume_scale = (theta / self.theta_reference) ** 3
         self.T_points = values
+
+    def theta(self, T: np.ndarray) -> np.ndarray:
+        """The thermal stretch 1 + alpha (T - T_0) of the points at temperatures T (owned points,) [K]."""
+        return 1.0 + self.expansion * (T - self.heat.T_initial)
 
     def points_temperature(self) -> np.ndarray:
         """The temperature field at the owned quadrature points now, (owned points,) [K]."""
@@ -143,9 +146,8 @@ class ThermalCoupling:
         self.plastic.eqps_last, self.plastic.tau_last = rows["eqps_last"], rows["tau_last"]
         self.T_points, self.theta_reference = rows["T_points"], rows["theta_reference"]
         if self.expansion is not None:
-            T0, a = self.heat.T_initial, self.expansion
             self.qmap.stretch = rows["stretch"]
-            self.qmap.volume_scale = ((1.0 + a * (self.T_points - T0)) / self.theta_reference) ** 3
+            self.qmap.volume_scale = (self.theta(self.T_points) / self.theta_reference) ** 3
         self.t_last = float(d["t_last"])
 
     def keys(self):

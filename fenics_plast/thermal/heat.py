@@ -106,8 +106,6 @@ class HeatConduction:
         a = (rho_c * T * v * w * dx
              + self.dt * conductivity * J * ufl.dot(current(grad3(T)), current(grad3(v))) * w * dx)
         L = rho_c * self.T_n * v * w * dx + self.plastic_heat * v * w * dx
-        residual = (rho_c * (self.T - self.T_n) * v * w * dx - self.plastic_heat * v * w * dx
-                    + self.dt * conductivity * J * ufl.dot(current(grad3(self.T)), current(grad3(v))) * w * dx)
         self.names = []
         self.bcs, self._bc_dofs, self._flux_forms = [], {}, {}
         fdim = mesh.topology.dim - 1
@@ -124,7 +122,6 @@ class HeatConduction:
             coefficient, slope = kind.flux_terms(spec, self.T_n)
             a = a - self.dt * slope * T * v * da * ds(tag)
             L = L + self.dt * coefficient * v * da * ds(tag)
-            residual = residual - self.dt * (coefficient + slope * self.T) * v * da * ds(tag)
             self._flux_forms[name] = fem.form(self.dt * (coefficient + slope * self.T) * da * ds(tag))
         self.in_contact = {}
         for name, tag, h, T_tool in contacts:
@@ -132,10 +129,9 @@ class HeatConduction:
             chi = self.in_contact[name] = fem.Function(self.V, name=f"in_contact_{name}")
             a = a + self.dt * h * chi * T * v * da * ds(tag)
             L = L + self.dt * h * chi * T_tool * v * da * ds(tag)
-            residual = residual - self.dt * h * chi * (T_tool - self.T) * v * da * ds(tag)
             self._flux_forms[name] = fem.form(self.dt * h * chi * (T_tool - self.T) * da * ds(tag))
         self.a_form, self.L_form = fem.form(a), fem.form(L)
-        self.residual_form = fem.form(residual)
+        self.residual_form = fem.form(ufl.action(a, self.T) - L)     # the equations' residual at T
         self.stored_form = fem.form(rho_c * (self.T - self.T_initial) * w * dx)
         self.rho_c = rho_c
         self._capacity_form = fem.form(rho_c * w * dx)
