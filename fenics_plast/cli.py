@@ -51,6 +51,12 @@ def _say(msg: str) -> None:
 
 
 def cmd_run(args) -> int:
+    if args.accuracy:
+        return cmd_accuracy(args)
+    for flag in ("time_budget", "memory_budget", "np"):
+        if getattr(args, flag) is not None:
+            _error(f"--{flag.replace('_', '-')} goes with --accuracy")
+            return EXIT_USAGE
     from .problem import load_problem      # the dolfinx stack, imported while libgmsh loads (main)
     try:
         problem = load_problem(args.scene, args.set or ())
@@ -448,6 +454,37 @@ def cmd_keys(args) -> int:
     return EXIT_OK
 
 
+def cmd_accuracy(args) -> int:
+    """``run --accuracy``: the ladder, the final run and the results with error bars (exit 0: every
+    tolerance met; 1: refused or not met, with the reason in accuracy.md; 2: bad arguments)."""
+    from mpi4py import MPI
+    from .accuracy import AccuracyError, lines, parse_tolerance, run_accuracy
+    if MPI.COMM_WORLD.size > 1:
+        _error("run --accuracy starts its own runs: give --np N instead of launching it under mpirun")
+        return EXIT_USAGE
+    if args.resume:
+        _error("--resume does not go with --accuracy: asking again with the same --out reuses the runs made")
+        return EXIT_USAGE
+    try:
+        tolerances = [parse_tolerance(t) for t in args.accuracy]
+        if args.out:
+            out = Path(args.out)
+        else:
+            from .problem import load_problem
+            out = Path("results") / f"accuracy_{load_problem(args.scene, args.set or ()).name}"
+        outcome = run_accuracy(args.scene, tolerances, out, args.set or (), np_ranks=args.np or 1,
+                               time_budget=args.time_budget, memory_budget=args.memory_budget,
+                               trust_mesh_script=args.trust_mesh_script, overwrite=args.overwrite,
+                               log=_say)
+    except (AccuracyError, SceneError) as e:
+        _error(str(e))
+        return EXIT_USAGE
+    _say(f"fenics-plast: accuracy {outcome.status}: {out / 'accuracy.md'}")
+    for line in lines(outcome):
+        _say(line)
+    return 0 if outcome.status == "met" else 1
+
+
 def cmd_study(args) -> int:
     from .study import study_from_args
     return study_from_args(args)
@@ -481,6 +518,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="continue the killed run whose output directory is DIR from its newest complete "
                         "checkpoint (same scene file, --set options and number of MPI ranks); output "
                         "goes on in DIR")
+    r.add_argument("--accuracy", action="append", metavar="RESULT=TOL",
+                   help="a tolerance on a result (summary.json key): radius_mm=0.5%% (relative) or "
+                        "radius_mm=0.02 (its unit); 1%% alone: every key result (repeatable). Runs a ladder of "
+                        "meshes (and probes of the time step and the contact penalty), then the cheapest setting "
+                        "predicted to meet every tolerance; reports each result as value +- error bar into "
+                        "--out (default results/accuracy_<scene name>): accuracy.md, accuracy.json, runs/. "
+                        "Asking again with the same --out reuses the runs")
+    r.add_argument("--time-budget", type=float, metavar="S",
+                   help="with --accuracy: refuse (with the table) a final run predicted to take longer [s]")
+    r.add_argument("--memory-budget", type=float, metavar="MB",
+                   help="with --accuracy: refuse a final run predicted to need more peak memory [MB]")
+    r.add_argument("--np", type=int, help="with --accuracy: MPI ranks of each run (mpirun -n NP)")
     r.set_defaults(func=cmd_run)
 
     q = sub.add_parser("point", help="drive the material of a scene at one material point",

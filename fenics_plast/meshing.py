@@ -15,6 +15,7 @@ beforehand by :mod:`fenics_plast.mesh_size`.
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import tempfile
 from pathlib import Path
@@ -88,10 +89,16 @@ def ring_mesh(comm, inner_radius, outer_radius, cells_radial, cells_circumferent
         "radial_grading": grading})
 
 
-def refined(parameters: dict, refine: int) -> dict:
+def refined(parameters: dict, refine: float) -> dict:
     """The .geo parameters with ``refine`` applied: each cell count (a name that starts with ``cells`` or
-    ends in ``_cells``, :func:`fenics_plast.schema.is_cell_count`) multiplied by it."""
-    return {k: (v * refine if is_cell_count(k) else v) for k, v in parameters.items()}
+    ends in ``_cells``, :func:`fenics_plast.schema.is_cell_count`) multiplied by it, rounded to the
+    nearest integer and at least 1 (refine 1.5: 6 cells -> 9; an integer refine keeps the exact product)."""
+    def count(v):
+        if isinstance(refine, int) or float(refine).is_integer():
+            return v * int(refine)
+        x = v * refine
+        return max(1, int(round(x))) if math.isfinite(x) and x < 2 ** 62 else x
+    return {k: (count(v) if is_cell_count(k) else v) for k, v in parameters.items()}
 
 
 def _mesh_in_child(path, opened, suffix, values, gdim, msh):

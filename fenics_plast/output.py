@@ -296,7 +296,7 @@ STUDY_FILES = ("study.csv", "study.md", "study.png", "runs", "run.log", "study_r
 #: names a plot (<name>.png) or an output (<name>.csv) may not take: they name files of the run itself,
 #: of ``fenics-plast point`` (point_<path>.csv in results/<scene>/) or of a study (compared casefolded)
 RESERVED_NAMES = ("history", "summary", "fields", "final_shape", "checkpoint", "point_uniaxial", "point_shear",
-                  "point_table", "study", "study_run", "run", "runs")
+                  "point_table", "study", "study_run", "run", "runs", "accuracy")
 _RESERVED_RE = re.compile(r"^(fields_part\d+|fields_remesh\d+)$", re.IGNORECASE)
 
 
@@ -340,11 +340,11 @@ def _read_marker(path) -> dict | None:
 
 
 def results_folder_kind(path: str | os.PathLike) -> str | None:
-    """``"run"`` or ``"study"`` for a results folder (what its marker says; older folders: run), None
-    for another folder."""
+    """``"run"``, ``"study"`` or ``"accuracy"`` (``run --accuracy``) for a results folder (what its marker
+    says; older folders: run), None for another folder."""
     m = _read_marker(path)
     if m is not None and (m.get("scene") is None or isinstance(m.get("scene"), str)):
-        return "study" if m.get("kind") == "study" else "run"
+        return m["kind"] if m.get("kind") in ("study", "accuracy") else "run"
     return "run" if results_folder_scene(path)[0] else None
 
 

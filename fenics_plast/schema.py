@@ -34,7 +34,7 @@ from fenics_plast.thermal.boundaries import TYPES as thermal_boundary_types, W_M
 
 __all__ = ["SCHEMA", "SECTIONS", "Key", "Table", "REQUIRED", "OPTIONAL", "COMPONENTS", "COMPONENTS_3D", "GEOMETRIES",
            "component_index", "component_names", "is_cell_count", "vector_size", "LAWS", "US", "M_S", "KG_M3",
-           "PENALTY_FACTOR", "key", "default", "choices"]
+           "PENALTY_FACTOR", "key", "default", "choices", "discretisation_keys", "MESH_PARAMETER_REFINES"]
 
 
 #: component names of vectors in 2-D: x = r and y = z (in axisymmetry; plane strain accepts the same names)
@@ -184,18 +184,19 @@ SCHEMA: dict[str, Table] = {
         optional=False, discriminator="type", keys={
             "type": Key("str", REQUIRED, "Static or explicit.", choices=("static", "explicit")),
             "increments": Key("int", 20, "Initial number of equal increments of a step.", when={"type": STATIC},
-                              **_count()),
+                              refines=+1, axis="time", **_count()),
             "min_increment": Key("float", 1e-4, "Smallest increment of pseudo-time before the run gives up.",
-                                 when={"type": STATIC}, **_pos()),
+                                 when={"type": STATIC}, refines=-1, **_pos()),
             "max_increment": Key("float", 0.1, "Largest increment of pseudo-time.", when={"type": STATIC},
-                                 **_pos()),
+                                 refines=-1, axis="time", **_pos()),
             "max_iterations": Key("int", 25, "Newton iterations per increment before cutting back.",
                                   when={"type": STATIC}, lo=2, lo_open=False),
             "fast_iterations": Key("int", 4, "An increment that converges in at most this many Newton iterations "
                                    "lets the next one grow by half (up to max_increment); frictional contact "
                                    "typically takes 5 to 8.", when={"type": STATIC}, **_count()),
-            "rtol": Key("float", 1e-9, "Relative residual tolerance.", when={"type": STATIC}, **_pos()),
-            "atol": Key("float", 1e-8, "Absolute residual tolerance.", "N", when={"type": STATIC}, **_pos()),
+            "rtol": Key("float", 1e-9, "Relative residual tolerance.", when={"type": STATIC}, refines=-1, **_pos()),
+            "atol": Key("float", 1e-8, "Absolute residual tolerance.", "N", when={"type": STATIC}, refines=-1,
+                        **_pos()),
             "linesearch": Key("str", "bt", "SNES line search.", choices=("bt", "basic", "l2"),
                               when={"type": STATIC}),
             "linear_solver": Key("str", "mumps", "Linear solver of each Newton iteration: 'mumps' (direct LU, "
@@ -231,9 +232,9 @@ SCHEMA: dict[str, Table] = {
                             when={"type": STATIC}, **_pos()),
             "end_time": Key("float", REQUIRED, "Simulated time.", "µs", when={"type": EXPLICIT}, scale=US, **_pos()),
             "dt_safety": Key("float", 0.8, "Time step = dt_safety x the stable limit.", when={"type": EXPLICIT},
-                             lo=0.0, hi=1.0, hi_open=False),
+                             lo=0.0, hi=1.0, hi_open=False, refines=-1, axis="time"),
             "time_steps": Key("int", OPTIONAL, "Fixes dt = end_time / time_steps; refused above the stable limit.",
-                              when={"type": EXPLICIT}, **_count()),
+                              when={"type": EXPLICIT}, refines=+1, axis="time", **_count()),
             "internal_force": Key("str", "fused", "How the explicit internal force is computed: 'fused' (one "
                                   "compiled pass, the default) or 'ufl' (the UFL residual assembled by dolfinx, "
                                   "the definition). Same numbers to round-off.", when={"type": EXPLICIT},
@@ -244,7 +245,7 @@ SCHEMA: dict[str, Table] = {
                                "near 180 degrees, a sound triangle); 'size' = h / c alone (h its smallest edge "
                                "or altitude, c the dilatational wave speed): 25-35 % more steps on the crushed "
                                "cells of an impact. The step used is dt_safety x the smallest over the cells.",
-                               when={"type": EXPLICIT}, choices=("size", "element")),
+                               when={"type": EXPLICIT}, choices=("size", "element"), refines=0),
             "dt_floor": Key("float", 1e-3, "Time-step floor, as a fraction of the initial stable step: when the "
                             "stable step of the deformed mesh falls below it (a crushed cell), the run stops "
                             "(exit 1, summary.json with converged = false, the fields and a checkpoint at the "
@@ -256,7 +257,7 @@ SCHEMA: dict[str, Table] = {
                                    "removed. The added mass, the cells affected and the kinetic energy the mass "
                                    "brings are in history.csv and summary.json, and in the energy balance. The "
                                    "step used is dt_safety x the stable step. 0: off.", "µs",
-                                   when={"type": EXPLICIT}, scale=US, **_nonneg()),
+                                   when={"type": EXPLICIT}, scale=US, refines=-1, **_nonneg()),
             "erosion_ratio": Key("float", 0.0, "Element erosion: a cell whose smallest quadrature-point "
                                  "Jacobian falls below this fraction of its mean dilatation (a cell about to "
                                  "fold, which no time step or mass scaling prevents) is removed: it adds no "
@@ -278,10 +279,11 @@ SCHEMA: dict[str, Table] = {
             "element": Key("str", "q1p0", "q1p0: Q1 displacement + DG0 dilatation (F-bar); q1: plain Q1 "
                            "(quadrilaterals in 2-D, hexahedra in 3-D).",
                            choices=("q1p0", "q1")),
-            "refine": Key("int", 1, "Multiplies every cell count of `[mesh.parameters]` (.geo only). Before "
+            "refine": Key("float", 1, "Multiplies every cell count of `[mesh.parameters]` (.geo only; each "
+                          "product rounded to the nearest integer, at least 1: 1.5 makes 6 cells 9). Before "
                           "meshing, the mesh's size is estimated (the .geo meshed at a smaller scale) and refused "
                           "when it would need more than the machine's memory (at 4 kB per cell in 2-D, 5 kB in 3-D, "
-                          "half what the cheapest run takes).", **_count()),
+                          "half what the cheapest run takes).", refines=+1, axis="mesh", **_pos()),
         }, subtables={"parameters": Table("Named numbers passed to the .geo file (its DefineConstant "
                                           "\"Parameters/<name>\"); unknown names are refused. A name that starts "
                                           "with `cells` or ends in `_cells` is a cell count: an integer >= 1; any "
@@ -373,9 +375,9 @@ SCHEMA: dict[str, Table] = {
             "law": Key("str", "quasi-coulomb", "coulomb: current p and N; quasi-coulomb: p and N frozen over an "
                        "increment (seed eq. 24, symmetric).", choices=("coulomb", "quasi-coulomb")),
             "penalty": Key("float", OPTIONAL, f"Normal penalty; absent = {PENALTY_FACTOR:g} E / h, h the mean depth "
-                           "of the cells along the group.", "N/mm³", **_pos()),
+                           "of the cells along the group.", "N/mm³", refines=+1, axis="contact", **_pos()),
             "tangential_penalty": Key("float", OPTIONAL, "Tangential (stick) penalty; absent = the normal "
-                                      "penalty.", "N/mm³", **_pos()),
+                                      "penalty.", "N/mm³", refines=+1, axis="contact", **_pos()),
             "conductance": Key("float", OPTIONAL, "With [thermal], a pair with a tool: the heat transfer coefficient "
                                "h of the contact: the nodes in contact exchange q = h (T_tool - T) with the tool "
                                "(tools.<tool>.temperature); absent: no heat crosses the contact.", "W/(m² K)",
@@ -394,9 +396,9 @@ SCHEMA: dict[str, Table] = {
         collection=True, when_analysis=STATIC, keys={
             "end": Key("float", REQUIRED, "Pseudo-time at the end of the step.", "", **_pos()),
             "increments": Key("int", OPTIONAL, "Initial increments of this step (absent: analysis.increments).",
-                              **_count()),
+                              refines=+1, axis="time", **_count()),
             "max_increment": Key("float", OPTIONAL, "Largest increment (absent: analysis.max_increment).",
-                                 **_pos()),
+                                 refines=-1, axis="time", **_pos()),
         }),
     "remeshing": Table(
         "Automatic remeshing of 2-D bodies: after every converged increment (static) the deformed "
@@ -408,11 +410,11 @@ SCHEMA: dict[str, Table] = {
         "x, y, z (the new mesh's reference is the deformed shape). Explicit runs check the cells at every "
         "step-size check and remesh there, or where the next step would fold a cell (no contact pairs, "
         "prescribed motions, loads, erosion or mass scaling with it yet).", keys={
-            "size": Key("float", REQUIRED, "Cell size of the new meshes.", "mm", **_pos()),
+            "size": Key("float", REQUIRED, "Cell size of the new meshes.", "mm", refines=-1, axis="mesh", **_pos()),
             "refine_size": Key("float", OPTIONAL, "Cell size within 2 `size` of the corners of the deformed "
                                "outline (where it turns by more than `corner_angle`: tool edges, folds), "
                                "growing to `size` over a further 4 `size`; absent: `size` everywhere.", "mm",
-                               **_pos()),
+                               refines=-1, axis="mesh", **_pos()),
             "corner_angle": Key("float", 20.0, "A vertex of the deformed outline where the boundary turns by more "
                                 "than this is a corner, refined to `refine_size`.", "deg", lo=0.0, hi=180.0),
             "min_scaled_jacobian": Key("float", 0.2, "Remesh when a cell's scaled Jacobian (the sine of its "
@@ -551,6 +553,33 @@ def default(path: str, analysis: str | None = None) -> Any:
     if value is REQUIRED:
         raise KeyError(f"scene key {path!r} is required: it has no default")
     return None if value is OPTIONAL else (tuple(value) if isinstance(value, list) else value)
+
+
+#: the free ``[mesh.parameters]`` names that are discretisation settings (fnmatch patterns on the name):
+#: cell counts refine when larger (``mesh.refine`` multiplies them, so they are on no axis of their own);
+#: a grading or size ratio orders nothing
+MESH_PARAMETER_REFINES: dict[str, int] = {"cells*": +1, "*_cells": +1, "*grading": 0, "*size_ratio": 0}
+
+
+def discretisation_keys() -> dict[str, tuple[int, str | None]]:
+    """Every discretisation setting of the scene format: {dotted key (fnmatch pattern: a collection's
+    tables are ``*``): (refines, axis)} from the keys' ``refines`` and ``axis`` declarations
+    (:class:`~fenics_plast.scene_key.Key`) and :data:`MESH_PARAMETER_REFINES`. What ``fenics-plast
+    study`` orders runs by, and what ``run --accuracy`` refines."""
+    out: dict[str, tuple[int, str | None]] = {}
+
+    def walk(prefix: str, table: Table) -> None:
+        for name, k in table.keys.items():
+            if k.refines is not None:
+                out[f"{prefix}.{name}"] = (k.refines, k.axis)
+        for name, sub in table.subtables.items():
+            walk(f"{prefix}.{name}", sub)
+
+    for section, table in SCHEMA.items():
+        walk(f"{section}.*" if table.collection else section, table)
+    for pattern, refines in MESH_PARAMETER_REFINES.items():
+        out[f"mesh.parameters.{pattern}"] = (refines, None)
+    return out
 
 
 def choices(path: str) -> tuple:

@@ -4,7 +4,7 @@ keys order runs from coarse to fine.
 * :class:`Vary`, :func:`parse_vary`, :func:`split_values`: ``--vary KEY=V1,V2,...``;
 * :func:`combinations`, :func:`run_label`, :func:`run_name`: the runs of a study, in order;
 * :data:`ORDERED_KEYS`, :func:`order_sign`, :func:`ordered_varies`: discretisation keys
-  (fnmatch patterns) and the direction in which they refine; :data:`RICHARDSON_KEYS`: the keys
+  (fnmatch patterns, from the schema) and the direction in which they refine; :data:`RICHARDSON_KEYS`: the keys
   along which a Richardson extrapolation is made, with the mesh size h(value);
 * :data:`UNORDERED_KEYS`: discretisation keys that do not order runs (a mesh's grading);
 * :func:`set_key`, :func:`non_discretisation_keys`: the keys a study changes that are not
@@ -23,29 +23,17 @@ import tomllib
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Sequence
 
+from ..schema import discretisation_keys
+
 #: Keys (fnmatch patterns) that order runs from coarse to fine: +1 = a larger value is finer,
-#: -1 = a smaller one. The first pattern that matches a key gives its direction.
-ORDERED_KEYS: dict[str, int] = {
-    "mesh.refine": +1,
-    "mesh.parameters.cells*": +1,
-    "analysis.dt_safety": -1,
-    "analysis.mass_scaling_dt": -1,          # 0 (no mass scaling) is the finest
-    "analysis.time_steps": +1,
-    "analysis.increments": +1,
-    "steps.*.increments": +1,
-    "analysis.max_increment": -1,
-    "steps.*.max_increment": -1,
-    "analysis.min_increment": -1,
-    "analysis.rtol": -1,
-    "analysis.atol": -1,
-    "contact.*.penalty": +1,
-    "contact.*.tangential_penalty": +1,
-}
+#: -1 = a smaller one. The first pattern that matches a key gives its direction. Declared in the
+#: schema (``Key.refines``, :func:`fenics_plast.schema.discretisation_keys`).
+ORDERED_KEYS: dict[str, int] = {k: r for k, (r, _axis) in discretisation_keys().items() if r != 0}
 
 #: Discretisation keys (fnmatch patterns) that do not order runs: a mesh's grading, the stable-step
-#: estimate. Categorical in a study (each value its own group), but like :data:`ORDERED_KEYS` they
-#: leave the problem itself, and so its published references, unchanged.
-UNORDERED_KEYS: tuple[str, ...] = ("mesh.parameters.*grading", "mesh.parameters.*size_ratio", "analysis.stable_step")
+#: estimate (``Key.refines = 0`` in the schema). Categorical in a study (each value its own group), but
+#: like :data:`ORDERED_KEYS` they leave the problem itself, and so its published references, unchanged.
+UNORDERED_KEYS: tuple[str, ...] = tuple(k for k, (r, _axis) in discretisation_keys().items() if r == 0)
 
 #: Keys (fnmatch patterns) along which a Richardson extrapolation is made, with the mesh size h(value).
 RICHARDSON_KEYS: dict[str, Callable[[float], float]] = {"mesh.refine": lambda v: 1.0 / v}
