@@ -242,7 +242,7 @@ def test_short_taylor_study(tmp_path):
     # invalid value: the validator's message, no run directory
     for name in ("01_refine-0_time_steps-1", "02_refine-0_time_steps-200"):
         assert by[name]["status"] == "invalid"
-        assert "mesh.refine" in by[name]["reason"] and "refine >= 1" in by[name]["reason"]
+        assert "mesh.refine" in by[name]["reason"] and "refine > 0" in by[name]["reason"]
         assert not (out / "runs" / name).exists()
     # step above the stable limit: refused by the run before it writes anything (exit 2, issue 21)
     for name in ("03_refine-1_time_steps-1", "05_refine-2_time_steps-1"):

@@ -2,7 +2,8 @@
 
 1. The scene and the tolerances are checked (AccuracyError, exit 2, nothing written): every named
    result is an output of the scene, and the scene has a mesh axis (a .geo mesh).
-2. The ladder runs (:mod:`.ladder`): three meshes, and one probe per other axis.
+2. The ladder runs (:mod:`.ladder`): three meshes, and one probe per other axis; a second probe of an
+   axis whose first bounds a result's error by more than its share of the tolerance.
 3. Each result's error is estimated (:mod:`.estimate`) and the final setting chosen (:mod:`.plan`).
    A result the ladder cannot vouch for (not in the asymptotic range, oscillating beyond its
    tolerance), a failed run, or a final run predicted beyond ``time_budget`` / ``memory_budget``:
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,14 +31,16 @@ from ..out_files import LinkRefused, make_dir
 from ..output import OutputDirError, check_out_dir, make_out_dir, mark_results_folder, remove_created
 from ..run_lock import RunLock
 from .axes import scene_axes
-from .estimate import MeshEstimate, ProbeEstimate, mesh_estimate, probe_estimate
+from .estimate import THEORETICAL_ORDER, MeshEstimate, ProbeEstimate, mesh_estimate, probe_estimate
 from .ladder import PROBE_RATIO, Ladder, Setting, ladder_settings
-from .plan import TARGET, bar_parts, final_factors, need, predicted_cost, predicted_memory
+from .plan import SHARE, TARGET, bar_parts, final_factors, need, predicted_cost, predicted_memory, round_up
 from .report import ACCURACY_FILES, Outcome, ResultReport, write_json, write_markdown
 from .tolerance import AccuracyError, Tolerance, expand
 
 #: final runs at most (the predicted one, and one more where a bar came out above its tolerance)
 MAX_FINALS = 2
+#: probe levels of an axis at most, the scene's setting included (time: up to 16 times finer)
+MAX_PROBE_LEVELS = 5
 
 
 def _fingerprint(problem, sets: Sequence[str], np_ranks: int) -> str:
@@ -63,6 +67,7 @@ class _State:
     """The request as it goes: the ladder's levels and probes, the results' estimates."""
     levels: list[Setting]
     probes: dict[str, Setting]
+    order_cap: float
     sizes: dict[str, float] = field(default_factory=dict)            # run name -> relative h
     mesh: dict[str, MeshEstimate] = field(default_factory=dict)
     probe: dict[str, dict[str, ProbeEstimate]] = field(default_factory=dict)
@@ -141,53 +146,35 @@ def _request(problem, tol: dict[str, Tolerance], ladder: Ladder, outcome: Outcom
              time_budget: float | None, memory_budget: float | None) -> None:
     """The ladder, the estimates, the final run(s): fills ``outcome``."""
     explicit = problem.explicit
-    dim = 3 if problem.mesh.geometry == "3d" else 2
     levels, probes = ladder_settings(ladder.axes)
-    st = _State(levels, probes)
-    for s in [*levels, *probes.values()]:
-        run = ladder.run(s)
-        if not run.ok:
-            outcome.refuse(f"the ladder's run {run.name} {run.status}: {run.reason}",
-                           "fix what stopped it (its run.log is in runs/" + run.name + "/), or start the ladder "
-                           "from another mesh with --set mesh.refine=...")
-            return
-    ladder_names = [s.name for s in [*levels, *probes.values()]]
-    outcome.ladder_names = ladder_names
-
-    def size(name: str, setting: Setting) -> float:
-        return 1.0 / setting.factor("mesh")
-
-    for s in [*levels, *probes.values()]:
-        st.sizes[s.name] = size(s.name, s)
-    for key in tol:
-        values = [ladder.runs[s.name].value(key) for s in levels]
-        st.mesh[key] = mesh_estimate([st.sizes[s.name] for s in levels],
-                                     [v if isinstance(v, (int, float)) else float("nan") for v in values])
-        st.probe[key] = {a: probe_estimate(a, PROBE_RATIO[a], values[0], ladder.runs[p.name].value(key))
-                         for a, p in probes.items()}
+    st = _State(levels, probes, order_cap=theoretical_order(problem))
+    if not _estimate(tol, ladder, st, outcome, explicit):
+        return
     needs = {k: need(tol[k].absolute(_reference(st.mesh[k])), st.mesh[k], st.probe[k], explicit) for k in tol}
-    refused = {k: n.refusal for k, n in needs.items() if n.refusal}
     outcome.estimates = {k: _estimate_dict(st.mesh[k], st.probe[k]) for k in tol}
+    refused = {k: n for k, n in needs.items() if n.refusal}
     if refused:
-        for k, why in refused.items():
-            outcome.refuse(f"{k}: {why}", _advice(st.mesh[k], tol[k]))
+        for k, n in refused.items():
+            outcome.refuse(f"{k}: {n.refusal}", _advice(st.mesh[k]) if n.axis == "mesh" else _probe_advice(n.axis))
         return
     exact = ladder.axes["mesh"].exact
     factors = final_factors(list(needs.values()), finest=levels[-1].factor("mesh"), exact=exact)
+    for axis in EFFECTIVE:                  # the measured refinement each result needs -> the setting's
+        if factors.get(axis, 1.0) > 1.0:
+            factors[axis] = round_up(_nominal(axis, factors[axis], ladder, st, explicit))
+    dim = 3 if problem.mesh.geometry == "3d" else 2
     for attempt in range(MAX_FINALS):
         setting = Setting.of(**factors)
-        predicted = _predict(ladder, levels, setting, explicit, dim)
-        outcome.predicted = predicted
-        over = _over_budget(predicted, time_budget, memory_budget)
+        outcome.predicted = _predict(ladder, levels, setting, explicit, dim)
+        over = _over_budget(outcome.predicted, time_budget, memory_budget)
         if over:
             outcome.refuse(f"the run that meets the tolerances ({setting.name}) is predicted to take {over}",
                            "raise the budget (--time-budget, --memory-budget), loosen the tolerance, or accept "
                            "the finest ladder run: its results and error bars are in the table")
             _report(outcome, tol, ladder, st, levels[-1], levels[-1].name, explicit, predicted_bar=False)
             return
-        if setting == levels[-1]:
-            final_name = levels[-1].name
-        else:
+        final_name = levels[-1].name
+        if setting != levels[-1]:
             run = ladder.run(setting, final=True)
             if not run.ok:
                 outcome.refuse(f"the final run {run.name} {run.status}: {run.reason}",
@@ -195,27 +182,140 @@ def _request(problem, tol: dict[str, Tolerance], ladder: Ladder, outcome: Outcom
                 _report(outcome, tol, ladder, st, levels[-1], levels[-1].name, explicit, predicted_bar=False)
                 return
             final_name = run.name
-            st.sizes[final_name] = size(final_name, setting)
+            st.sizes[final_name] = 1.0 / setting.factor("mesh")
         outcome.final = final_name
         outcome.final_setting = dict(setting.factors)
         outcome.final_overrides = setting.overrides(ladder.axes)
         _report(outcome, tol, ladder, st, setting, final_name, explicit,
                 predicted_bar=setting != levels[-1] and not setting.others_at_one())
-        short = [r for r in outcome.results if not r.met]
-        if not short or attempt == MAX_FINALS - 1:
+        grow = _growth(outcome.results)
+        if grow is None or attempt == MAX_FINALS - 1:
             return
-        grown = {}
-        for r in short:
-            est = r.mesh_estimate
-            if est is None or est.kind != "monotone" or r.tolerance_abs <= 0:
-                continue
-            grown["mesh"] = max(grown.get("mesh", 1.0),
-                                (r.bar / (TARGET * r.tolerance_abs)) ** (1.0 / est.used_order))
-        if not grown:
-            return
-        factors = dict(factors, mesh=exact(factors["mesh"] * grown["mesh"], up=True))
+        factors = dict(factors, mesh=exact(factors["mesh"] * grow, up=True))
         outcome.notes.append(f"the final run's bars exceeded a tolerance: one more refinement, mesh factor "
                              f"{factors['mesh']:g}")
+
+
+def _estimate(tol: dict[str, Tolerance], ladder: Ladder, st: _State, outcome: Outcome, explicit: bool) -> bool:
+    """Run the ladder (its meshes, one probe per other axis, more probes where one matters) and
+    estimate each result's error (``st.mesh``, ``st.probe``); False, with the refusal in ``outcome``,
+    when a run fails or an axis's probes do not converge."""
+    levels, probes = st.levels, st.probes
+    outcome.ladder_names = [s.name for s in [*levels, *probes.values()]]
+    for s in [*levels, *probes.values()]:
+        run = ladder.run(s)
+        if not run.ok:
+            outcome.refuse(f"the ladder's run {run.name} {run.status}: {run.reason}",
+                           "fix what stopped it (its run.log is in runs/" + run.name + "/), or start the ladder "
+                           "from another mesh with --set mesh.refine=...")
+            return False
+        st.sizes[s.name] = 1.0 / s.factor("mesh")
+    for key in tol:
+        values = [ladder.runs[s.name].value(key) for s in levels]
+        st.mesh[key] = mesh_estimate([st.sizes[s.name] for s in levels],
+                                     [v if isinstance(v, (int, float)) else float("nan") for v in values],
+                                     order_cap=st.order_cap)
+        st.probe[key] = {a: probe_estimate(a, [1.0, _effective(a, p.name, ladder, levels[0].name, explicit)],
+                                           [values[0], ladder.runs[p.name].value(key)])
+                         for a, p in probes.items()}
+    for axis in _second_probes(tol, st, explicit):
+        why = _probe_ladder(axis, tol, ladder, st, outcome.ladder_names, explicit)
+        if why:
+            outcome.refuse(*why)
+            return False
+    return True
+
+
+def _growth(results: list[ResultReport]) -> float | None:
+    """The further mesh factor that brings every monotone bar above its tolerance to TARGET of it;
+    None when every bar is met (or none that is not can be shrunk by the mesh)."""
+    grow = None
+    for r in results:
+        est = r.mesh_estimate
+        if r.met or est is None or est.kind != "monotone" or r.tolerance_abs <= 0:
+            continue
+        g = (r.bar / (TARGET * r.tolerance_abs)) ** (1.0 / est.used_order)
+        grow = g if grow is None else max(grow, g)
+    return grow
+
+
+def _probe_ladder(axis: str, tol: dict[str, Tolerance], ladder: Ladder, st: _State, ladder_names: list[str],
+                  explicit: bool) -> tuple[str, str] | None:
+    """More probes of ``axis`` (refined ratio^2, ratio^3, ... times, at the coarsest mesh) until every
+    result's finest three converge (or :data:`MAX_PROBE_LEVELS`); the probes' estimates replaced. A
+    refusal (why, what to do) when they do not converge."""
+    ratio = PROBE_RATIO[axis]
+    names = [st.levels[0].name, st.probes[axis].name]
+    for k in range(2, MAX_PROBE_LEVELS):
+        s = Setting.of(mesh=1.0, **{axis: ratio ** k})
+        run = ladder.run(s)
+        names.append(s.name)
+        if s.name not in ladder_names:
+            ladder_names.append(s.name)
+        if not run.ok:
+            return (f"the ladder's run {run.name} {run.status}: {run.reason}",
+                    "fix what stopped it (its run.log is in runs/" + run.name + "/)")
+        for key in tol:
+            st.probe[key][axis] = probe_estimate(
+                axis, [_effective(axis, n, ladder, st.levels[0].name, explicit) for n in names],
+                [ladder.runs[n].value(key) for n in names])
+        if all(st.probe[key][axis].ladder.kind in ("monotone", "round-off") for key in tol):
+            return None
+    key = next(k for k in tol if st.probe[k][axis].ladder.kind not in ("monotone", "round-off"))
+    return (f"{key}: the {axis} probes up to {ratio ** (MAX_PROBE_LEVELS - 1):g} times the scene's setting: "
+            f"{st.probe[key][axis].ladder.note}", _probe_advice(axis))
+
+
+#: what measures an adaptive axis's refinement in a run's summary.json: the time step's, the number of
+#: increments (static: growth and cut-backs make it differ from the settings') or steps (explicit)
+EFFECTIVE = {"time": {"static": "increments", "explicit": "steps"}}
+
+
+def _effective(axis: str, name: str, ladder: Ladder, base: str, explicit: bool) -> float:
+    """The factor by which run ``name`` refines ``axis`` against run ``base``, as measured (the
+    increments or steps counted) where the axis is adaptive, else as set."""
+    count = EFFECTIVE.get(axis, {}).get("explicit" if explicit else "static")
+    n, n0 = (ladder.runs[x].value(count) if count else None for x in (name, base))
+    if not (isinstance(n, (int, float)) and isinstance(n0, (int, float)) and n0 > 0):
+        return ladder.setting_of[name].factor(axis)
+    return max(n / n0, 1.0 + 1e-9)
+
+
+def _nominal(axis: str, effective: float, ladder: Ladder, st: _State, explicit: bool) -> float:
+    """The setting's factor expected to refine ``axis`` ``effective`` times (measured), from the probes'
+    (set, measured) pairs: log-linear between them, on the last segment's slope beyond."""
+    if effective <= 1.0 or axis not in EFFECTIVE:
+        return effective
+    probes = [n for n, s in ladder.setting_of.items() if s.factor("mesh") == 1.0 and
+              all(a in ("mesh", axis) for a, _ in s.factors)]
+    pairs = sorted({(ladder.setting_of[n].factor(axis), _effective(axis, n, ladder, st.levels[0].name, explicit))
+                    for n in probes})
+    for (n1, e1), (n2, e2) in zip(pairs[:-1], pairs[1:]):
+        if effective <= e2 or (n2, e2) == pairs[-1]:
+            slope = math.log(e2 / e1) / math.log(n2 / n1) if e2 > e1 else 1.0
+            return n1 * (effective / e1) ** (1.0 / max(slope, 1e-3))
+    return effective
+
+
+def _second_probes(tol: dict[str, Tolerance], st: _State, explicit: bool) -> list[str]:
+    """The axes whose first probe bounds a result's error by more than its share of the tolerance
+    (:data:`SHARE`): their order is measured on a second probe rather than assumed. (An explicit
+    run's time step is not one: the mesh ladder refines it.)"""
+    out = []
+    for key, t in tol.items():
+        for axis, probe in st.probe[key].items():
+            if explicit and axis == "time" or axis in out:
+                continue
+            if probe.bound > SHARE * t.absolute(_reference(st.mesh[key])):
+                out.append(axis)
+    return out
+
+
+def theoretical_order(problem) -> float:
+    """The order the scene's results can be expected to converge at (:data:`THEORETICAL_ORDER`):
+    first with plasticity or contact, second for a smooth (elastic, contactless) problem."""
+    rough = {"plasticity", "contact"} & set(problem.active_physics)
+    return THEORETICAL_ORDER["plastic or contact" if rough else "smooth"]
 
 
 def _reference(est: MeshEstimate) -> float:
@@ -226,11 +326,14 @@ def _reference(est: MeshEstimate) -> float:
 def _estimate_dict(est: MeshEstimate, probes: dict[str, ProbeEstimate]) -> dict:
     return dict(kind=est.kind, sizes=list(est.h), values=list(est.values), order=est.order,
                 extrapolated=est.value, note=est.note,
-                probes={a: dict(ratio=p.ratio, difference=p.difference, bound=p.bound, order=p.order)
+                probes={a: dict(ratio=p.ratio, difference=p.difference, bound=p.bound, order=p.order,
+                                measured=None if p.ladder is None else dict(kind=p.ladder.kind, order=p.ladder.order,
+                                                                            note=p.ladder.note))
                         for a, p in probes.items()})
 
 
-def _advice(est: MeshEstimate, t: Tolerance) -> str:
+def _advice(est: MeshEstimate) -> str:
+    """What to do about a result the mesh ladder cannot vouch for."""
     if est.kind == "oscillating":
         rel = est.bar / abs(est.values[-1]) if est.values[-1] else float("inf")
         return (f"this result does not converge monotonically with the mesh (a quantity past a bifurcation or a "
@@ -243,7 +346,18 @@ def _advice(est: MeshEstimate, t: Tolerance) -> str:
                 f"asymptotic range, or the result does not converge with the mesh (a localised quantity past a "
                 f"neck or a shear band). Start the ladder finer (--set mesh.refine=2) and ask again; if the "
                 f"order stays low, the result depends on the mesh: choose another")
-    return "check the ladder's values in the table; start the ladder finer (--set mesh.refine=2) and ask again"
+    return ("the result does not converge with the mesh on the ladder (its differences do not shrink): start "
+            "the ladder finer (--set mesh.refine=2) and ask again, or choose another result")
+
+
+#: the scene keys of each probed axis, as the advice names them
+AXIS_KEYS = {"time": "analysis.increments and analysis.max_increment (and each step's), or analysis.dt_safety",
+             "contact": "contact.<name>.penalty"}
+
+
+def _probe_advice(axis: str) -> str:
+    return (f"the result does not converge with the {axis} setting in the probes' range: refine "
+            f"{AXIS_KEYS[axis]} in the scene (--set) and ask again, or choose another result")
 
 
 def _predict(ladder: Ladder, levels: list[Setting], setting: Setting, explicit: bool, dim: int) -> dict:
@@ -286,13 +400,16 @@ def _report(outcome: Outcome, tol: dict[str, Tolerance], ladder: Ladder, st: _St
         est = st.mesh[key]
         mesh_bar, mesh_note = est.bar_at(h), "predicted from the ladder's meshes" if predicted_bar else ""
         if not predicted_bar and len(meshes) > len(st.levels):
-            again = mesh_estimate([st.sizes[n] for n in meshes], [ladder.runs[n].value(key) for n in meshes])
+            again = mesh_estimate([st.sizes[n] for n in meshes], [ladder.runs[n].value(key) for n in meshes],
+                                  order_cap=st.order_cap)
             if again.ok:
                 est, mesh_bar = again, again.bar_at(h)
                 mesh_note = f"from {len(meshes)} meshes, the final run's included"
             else:
                 mesh_note = f"the final run does not confirm the ladder ({again.note}): the ladder's prediction"
-        bar, parts = bar_parts(mesh_bar, st.probe[key], dict(setting.factors), explicit, h)
+        measured = {a: _effective(a, final_name, ladder, st.levels[0].name, explicit) if a in EFFECTIVE else f
+                    for a, f in setting.factors}
+        bar, parts = bar_parts(mesh_bar, st.probe[key], measured, explicit, h)
         t_abs = t.absolute(value if isinstance(value, (int, float)) and value else _reference(st.mesh[key]))
         outcome.results.append(ResultReport(
             key=key, value=value, bar=bar, parts=parts, tolerance=t, tolerance_abs=t_abs,

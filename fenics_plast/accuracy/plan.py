@@ -38,9 +38,11 @@ def round_up(x: float, digits: int = 2) -> float:
 
 @dataclass
 class Need:
-    """What one result needs: ``factors`` {axis: factor}; ``refusal``: why none can be given."""
+    """What one result needs: ``factors`` {axis: factor}; ``refusal``: why none can be given, and
+    ``axis``: the source that refused."""
     factors: dict[str, float] = field(default_factory=dict)
     refusal: str | None = None
+    axis: str = "mesh"
 
 
 def need(tolerance: float, mesh: MeshEstimate, probes: dict[str, ProbeEstimate], explicit: bool) -> Need:
@@ -52,7 +54,12 @@ def need(tolerance: float, mesh: MeshEstimate, probes: dict[str, ProbeEstimate],
     for axis, probe in probes.items():
         if explicit and axis == "time":
             continue
+        if probe.ladder is not None and not probe.ladder.ok:
+            return Need(refusal=f"the {axis} probes: {probe.ladder.note}", axis=axis)
         f = probe.factor_for(SHARE * tolerance)
+        if not math.isfinite(f):
+            return Need(refusal=f"the {axis} probes: {probe.ladder.note}; their bar {probe.bound:.4g} exceeds "
+                                f"the tolerance's share {SHARE * tolerance:.4g} at any setting", axis=axis)
         out.factors[axis] = f
         left -= probe.bound_at(f)
     h = mesh.size_for(left)
