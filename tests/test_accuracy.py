@@ -219,6 +219,14 @@ def test_thick_cylinder_accuracy_met_bracketed_and_reused(tmp_path):
     again = json.loads((out / "accuracy.json").read_text())
     assert all(again["runs"][n]["reused"] for n in acc["ladder_runs"]), again["runs"]
     assert again["results"]["inner_rx_N"]["error_bar"] <= 0.0005 * abs(again["results"]["inner_rx_N"]["value"])
+    # a final run predicted beyond the time budget is not started: refused, exit 1, the finest ladder
+    # run's value and bar reported
+    r = run_cli(REPO / "demos" / "thick_cylinder.toml", "--accuracy", "inner_rx_N=0.001%", "--time-budget",
+                "0.01", "--out", out)
+    assert r.returncode == 1 and "predicted to take about" in r.stdout and "--time-budget 0.01 s" in r.stdout, r.stdout
+    budget = json.loads((out / "accuracy.json").read_text())
+    assert budget["status"] == "refused" and budget["results"]["inner_rx_N"]["value"] == res["value"]
+    assert budget["final_runs"] == []
 
 
 @pytest.mark.parametrize("args, words", [

@@ -14,6 +14,8 @@ Modules, in the order a request goes through them:
   :mod:`fenics_plast.study.execute`), kept and reused by setting;
 * :mod:`.estimate`: a result's observed order and error bar from three meshes, and the bound a
   probe gives on another axis;
+* :mod:`.probes`: the probed axes' refinement as measured (a static run's increments counted), and
+  more probes where one matters;
 * :mod:`.plan`: the factors each result needs, the final setting, its predicted cost;
 * :mod:`.driver`: :func:`run_accuracy`, the request from start to end;
 * :mod:`.report`: accuracy.json, accuracy.md and the printed lines.
@@ -21,12 +23,13 @@ Modules, in the order a request goes through them:
 from __future__ import annotations
 
 from .driver import MAX_FINALS, run_accuracy
+from .probes import MAX_PROBE_LEVELS
 from .estimate import MIN_ORDER, SAFETY, THEORETICAL_ORDER, SAFETY_OSCILLATING, MeshEstimate, ProbeEstimate, mesh_estimate, probe_estimate
 from .ladder import LADDER_RATIO, PROBE_RATIO, Setting
 from .plan import SHARE, TARGET
 from .report import Outcome, lines
 from .tolerance import AccuracyError, Tolerance, parse_tolerance
 
-__all__ = ["run_accuracy", "MAX_FINALS", "MIN_ORDER", "THEORETICAL_ORDER", "SAFETY", "SAFETY_OSCILLATING", "MeshEstimate", "ProbeEstimate",
+__all__ = ["run_accuracy", "MAX_FINALS", "MAX_PROBE_LEVELS", "MIN_ORDER", "THEORETICAL_ORDER", "SAFETY", "SAFETY_OSCILLATING", "MeshEstimate", "ProbeEstimate",
            "mesh_estimate", "probe_estimate", "LADDER_RATIO", "PROBE_RATIO", "Setting", "SHARE", "TARGET", "Outcome",
            "lines", "AccuracyError", "Tolerance", "parse_tolerance"]

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,15 +31,14 @@ from ..output import OutputDirError, check_out_dir, make_out_dir, mark_results_f
 from ..run_lock import RunLock
 from .axes import scene_axes
 from .estimate import THEORETICAL_ORDER, MeshEstimate, ProbeEstimate, mesh_estimate, probe_estimate
-from .ladder import PROBE_RATIO, Ladder, Setting, ladder_settings
-from .plan import SHARE, TARGET, bar_parts, final_factors, need, predicted_cost, predicted_memory, round_up
+from .ladder import Ladder, Setting, ladder_settings
+from .plan import TARGET, bar_parts, final_factors, need, predicted_cost, predicted_memory, round_up
+from .probes import EFFECTIVE, axes_to_measure, effective_factor, more_probes, nominal_factor, probe_advice
 from .report import ACCURACY_FILES, Outcome, ResultReport, write_json, write_markdown
 from .tolerance import AccuracyError, Tolerance, expand
 
 #: final runs at most (the predicted one, and one more where a bar came out above its tolerance)
 MAX_FINALS = 2
-#: probe levels of an axis at most, the scene's setting included (time: up to 16 times finer)
-MAX_PROBE_LEVELS = 5
 
 
 def _fingerprint(problem, sets: Sequence[str], np_ranks: int) -> str:
@@ -155,13 +153,13 @@ def _request(problem, tol: dict[str, Tolerance], ladder: Ladder, outcome: Outcom
     refused = {k: n for k, n in needs.items() if n.refusal}
     if refused:
         for k, n in refused.items():
-            outcome.refuse(f"{k}: {n.refusal}", _advice(st.mesh[k]) if n.axis == "mesh" else _probe_advice(n.axis))
+            outcome.refuse(f"{k}: {n.refusal}", _advice(st.mesh[k]) if n.axis == "mesh" else probe_advice(n.axis))
         return
     exact = ladder.axes["mesh"].exact
     factors = final_factors(list(needs.values()), finest=levels[-1].factor("mesh"), exact=exact)
     for axis in EFFECTIVE:                  # the measured refinement each result needs -> the setting's
         if factors.get(axis, 1.0) > 1.0:
-            factors[axis] = round_up(_nominal(axis, factors[axis], ladder, st, explicit))
+            factors[axis] = round_up(nominal_factor(axis, factors[axis], ladder, levels[0].name, explicit))
     dim = 3 if problem.mesh.geometry == "3d" else 2
     for attempt in range(MAX_FINALS):
         setting = Setting.of(**factors)
@@ -215,14 +213,18 @@ def _estimate(tol: dict[str, Tolerance], ladder: Ladder, st: _State, outcome: Ou
         st.mesh[key] = mesh_estimate([st.sizes[s.name] for s in levels],
                                      [v if isinstance(v, (int, float)) else float("nan") for v in values],
                                      order_cap=st.order_cap)
-        st.probe[key] = {a: probe_estimate(a, [1.0, _effective(a, p.name, ladder, levels[0].name, explicit)],
+        st.probe[key] = {a: probe_estimate(a, [1.0, effective_factor(a, p.name, ladder, levels[0].name, explicit)],
                                            [values[0], ladder.runs[p.name].value(key)])
                          for a, p in probes.items()}
-    for axis in _second_probes(tol, st, explicit):
-        why = _probe_ladder(axis, tol, ladder, st, outcome.ladder_names, explicit)
+    absolute = {k: t.absolute(_reference(st.mesh[k])) for k, t in tol.items()}
+    for axis in axes_to_measure(st.probe, absolute, explicit):
+        found, why = more_probes(axis, list(tol), ladder, [levels[0].name, probes[axis].name], explicit,
+                                 outcome.ladder_names)
         if why:
             outcome.refuse(*why)
             return False
+        for key, estimate in found.items():
+            st.probe[key][axis] = estimate
     return True
 
 
@@ -237,78 +239,6 @@ def _growth(results: list[ResultReport]) -> float | None:
         g = (r.bar / (TARGET * r.tolerance_abs)) ** (1.0 / est.used_order)
         grow = g if grow is None else max(grow, g)
     return grow
-
-
-def _probe_ladder(axis: str, tol: dict[str, Tolerance], ladder: Ladder, st: _State, ladder_names: list[str],
-                  explicit: bool) -> tuple[str, str] | None:
-    """More probes of ``axis`` (refined ratio^2, ratio^3, ... times, at the coarsest mesh) until every
-    result's finest three converge (or :data:`MAX_PROBE_LEVELS`); the probes' estimates replaced. A
-    refusal (why, what to do) when they do not converge."""
-    ratio = PROBE_RATIO[axis]
-    names = [st.levels[0].name, st.probes[axis].name]
-    for k in range(2, MAX_PROBE_LEVELS):
-        s = Setting.of(mesh=1.0, **{axis: ratio ** k})
-        run = ladder.run(s)
-        names.append(s.name)
-        if s.name not in ladder_names:
-            ladder_names.append(s.name)
-        if not run.ok:
-            return (f"the ladder's run {run.name} {run.status}: {run.reason}",
-                    "fix what stopped it (its run.log is in runs/" + run.name + "/)")
-        for key in tol:
-            st.probe[key][axis] = probe_estimate(
-                axis, [_effective(axis, n, ladder, st.levels[0].name, explicit) for n in names],
-                [ladder.runs[n].value(key) for n in names])
-        if all(st.probe[key][axis].ladder.kind in ("monotone", "round-off") for key in tol):
-            return None
-    key = next(k for k in tol if st.probe[k][axis].ladder.kind not in ("monotone", "round-off"))
-    return (f"{key}: the {axis} probes up to {ratio ** (MAX_PROBE_LEVELS - 1):g} times the scene's setting: "
-            f"{st.probe[key][axis].ladder.note}", _probe_advice(axis))
-
-
-#: what measures an adaptive axis's refinement in a run's summary.json: the time step's, the number of
-#: increments (static: growth and cut-backs make it differ from the settings') or steps (explicit)
-EFFECTIVE = {"time": {"static": "increments", "explicit": "steps"}}
-
-
-def _effective(axis: str, name: str, ladder: Ladder, base: str, explicit: bool) -> float:
-    """The factor by which run ``name`` refines ``axis`` against run ``base``, as measured (the
-    increments or steps counted) where the axis is adaptive, else as set."""
-    count = EFFECTIVE.get(axis, {}).get("explicit" if explicit else "static")
-    n, n0 = (ladder.runs[x].value(count) if count else None for x in (name, base))
-    if not (isinstance(n, (int, float)) and isinstance(n0, (int, float)) and n0 > 0):
-        return ladder.setting_of[name].factor(axis)
-    return max(n / n0, 1.0 + 1e-9)
-
-
-def _nominal(axis: str, effective: float, ladder: Ladder, st: _State, explicit: bool) -> float:
-    """The setting's factor expected to refine ``axis`` ``effective`` times (measured), from the probes'
-    (set, measured) pairs: log-linear between them, on the last segment's slope beyond."""
-    if effective <= 1.0 or axis not in EFFECTIVE:
-        return effective
-    probes = [n for n, s in ladder.setting_of.items() if s.factor("mesh") == 1.0 and
-              all(a in ("mesh", axis) for a, _ in s.factors)]
-    pairs = sorted({(ladder.setting_of[n].factor(axis), _effective(axis, n, ladder, st.levels[0].name, explicit))
-                    for n in probes})
-    for (n1, e1), (n2, e2) in zip(pairs[:-1], pairs[1:]):
-        if effective <= e2 or (n2, e2) == pairs[-1]:
-            slope = math.log(e2 / e1) / math.log(n2 / n1) if e2 > e1 else 1.0
-            return n1 * (effective / e1) ** (1.0 / max(slope, 1e-3))
-    return effective
-
-
-def _second_probes(tol: dict[str, Tolerance], st: _State, explicit: bool) -> list[str]:
-    """The axes whose first probe bounds a result's error by more than its share of the tolerance
-    (:data:`SHARE`): their order is measured on a second probe rather than assumed. (An explicit
-    run's time step is not one: the mesh ladder refines it.)"""
-    out = []
-    for key, t in tol.items():
-        for axis, probe in st.probe[key].items():
-            if explicit and axis == "time" or axis in out:
-                continue
-            if probe.bound > SHARE * t.absolute(_reference(st.mesh[key])):
-                out.append(axis)
-    return out
 
 
 def theoretical_order(problem) -> float:
@@ -348,16 +278,6 @@ def _advice(est: MeshEstimate) -> str:
                 f"order stays low, the result depends on the mesh: choose another")
     return ("the result does not converge with the mesh on the ladder (its differences do not shrink): start "
             "the ladder finer (--set mesh.refine=2) and ask again, or choose another result")
-
-
-#: the scene keys of each probed axis, as the advice names them
-AXIS_KEYS = {"time": "analysis.increments and analysis.max_increment (and each step's), or analysis.dt_safety",
-             "contact": "contact.<name>.penalty"}
-
-
-def _probe_advice(axis: str) -> str:
-    return (f"the result does not converge with the {axis} setting in the probes' range: refine "
-            f"{AXIS_KEYS[axis]} in the scene (--set) and ask again, or choose another result")
 
 
 def _predict(ladder: Ladder, levels: list[Setting], setting: Setting, explicit: bool, dim: int) -> dict:
@@ -407,7 +327,7 @@ def _report(outcome: Outcome, tol: dict[str, Tolerance], ladder: Ladder, st: _St
                 mesh_note = f"from {len(meshes)} meshes, the final run's included"
             else:
                 mesh_note = f"the final run does not confirm the ladder ({again.note}): the ladder's prediction"
-        measured = {a: _effective(a, final_name, ladder, st.levels[0].name, explicit) if a in EFFECTIVE else f
+        measured = {a: effective_factor(a, final_name, ladder, st.levels[0].name, explicit) if a in EFFECTIVE else f
                     for a, f in setting.factors}
         bar, parts = bar_parts(mesh_bar, st.probe[key], measured, explicit, h)
         t_abs = t.absolute(value if isinstance(value, (int, float)) and value else _reference(st.mesh[key]))
