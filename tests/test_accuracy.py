@@ -118,16 +118,23 @@ def test_tolerances_parse_and_refuse():
 # (b) the plan
 
 
-def test_need_splits_the_tolerance_between_the_mesh_and_the_probes():
-    """Static: a time probe with a bound of 0.3 against a tolerance of 1 is refined to SHARE (x1.5); the
-    mesh gets the rest of TARGET. Explicit: the time step is not refined and not added."""
-    from fenics_plast.accuracy.plan import SHARE, TARGET
-    mesh = mesh_estimate([1.0, 0.75, 0.5], [10.0 - 2.0 * x for x in (1.0, 0.75, 0.5)])
+def test_need_splits_the_tolerance_where_the_run_costs_least():
+    """Static, mesh bar 2.5 h (first order) and a time probe bounding 0.3 at the scene's increments,
+    tolerance 1: the split of TARGET between them is the one of SHARES whose run costs least (mesh
+    factor^3 x time factor), and the two parts add up to TARGET. Explicit: the time step is neither
+    refined nor added."""
+    from fenics_plast.accuracy.plan import SHARES, TARGET
+    mesh = mesh_estimate([1.0, 0.75, 0.5], [10.0 - 2.0 * x for x in (1.0, 0.75, 0.5)],
+                         order_cap=THEORETICAL_ORDER["plastic or contact"])
     probe = ProbeEstimate("time", 2.0, 0.15, 1.0)
-    n = need(1.0, mesh, {"time": probe}, explicit=False)
-    assert abs(n.factors["time"] - 0.3 / SHARE) < 1e-12
-    h = 1.0 / n.factors["mesh"]
-    assert abs(SAFETY * 2.0 * h - (TARGET - SHARE)) < 1e-12
+
+    def cost(share):                              # closed form of the split: time factor 0.3/share
+        f_t = max(1.0, 0.3 / share)
+        return (SAFETY * 2.0 / (TARGET - 0.3 / f_t)) ** 3 * f_t
+    best = min(SHARES, key=cost)
+    n = need(1.0, mesh, {"time": probe}, explicit=False, cost_exponent=3.0)
+    assert abs(n.factors["time"] - max(1.0, 0.3 / best)) < 1e-12, (n.factors, best)
+    assert abs(SAFETY * 2.0 / n.factors["mesh"] + 0.3 / n.factors["time"] - TARGET) < 1e-12
     n = need(1.0, mesh, {"time": probe}, explicit=True)
     assert "time" not in n.factors and abs(SAFETY * 2.0 / n.factors["mesh"] - TARGET) < 1e-12
     total, parts = bar_parts(0.1, {"time": probe}, {"mesh": 2.0}, explicit=True, h=0.5)

@@ -148,7 +148,10 @@ def _request(problem, tol: dict[str, Tolerance], ladder: Ladder, outcome: Outcom
     st = _State(levels, probes, order_cap=theoretical_order(problem))
     if not _estimate(tol, ladder, st, outcome, explicit):
         return
-    needs = {k: need(tol[k].absolute(_reference(st.mesh[k])), st.mesh[k], st.probe[k], explicit) for k in tol}
+    walls = tuple(float(ladder.runs[s.name].value("wall_time_s") or 0.0) for s in levels[-2:])
+    k = predicted_cost(walls, tuple(s.factor("mesh") for s in levels[-2:]), 1.0, 1.0)[1]
+    needs = {key: need(tol[key].absolute(_reference(st.mesh[key])), st.mesh[key], st.probe[key], explicit,
+                       cost_exponent=k) for key in tol}
     outcome.estimates = {k: _estimate_dict(st.mesh[k], st.probe[k]) for k in tol}
     refused = {k: n for k, n in needs.items() if n.refusal}
     if refused:

@@ -10,11 +10,12 @@ the sum of its sources' (:mod:`.estimate`):
   step shrinks with the cells, so the time step's error is part of what the mesh ladder measures:
   it is reported (its bound at dt proportional to h), not added, and never refined on its own.
 
-The final setting aims every bar at :data:`TARGET` of its tolerance, a probed source taking at most
-:data:`SHARE` of it before its axis is refined. Pure functions of numbers: nothing here runs anything.
+The final setting aims every bar at :data:`TARGET` of its tolerance, split between the sources so
+that the run costs least (:func:`need`). Pure functions of numbers: nothing here runs anything.
 """
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from typing import Callable
@@ -23,8 +24,15 @@ from .estimate import MeshEstimate, ProbeEstimate
 
 #: the fraction of a tolerance the final run aims its error bar at (the estimate is itself uncertain)
 TARGET = 0.8
-#: the fraction of a tolerance a probed source (time, contact) may take before its axis is refined
+#: the fraction of a tolerance above which a probed source's order is measured, not assumed
+#: (:func:`fenics_plast.accuracy.probes.axes_to_measure`)
 SHARE = 0.2
+#: the shares of a tolerance a probed source (time, contact) may take, tried in turn: the split of a
+#: tolerance between the sources whose run costs least wins
+SHARES = (0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7)
+#: how refining a probed axis multiplies a run's cost: the time step's linearly (the increments or
+#: steps), the penalty's not at all
+AXIS_COST = {"time": 1.0, "contact": 0.0}
 
 
 def round_up(x: float, digits: int = 2) -> float:
@@ -45,30 +53,39 @@ class Need:
     axis: str = "mesh"
 
 
-def need(tolerance: float, mesh: MeshEstimate, probes: dict[str, ProbeEstimate], explicit: bool) -> Need:
-    """The factors that bring one result's bar within ``TARGET`` x ``tolerance`` (absolute)."""
+def need(tolerance: float, mesh: MeshEstimate, probes: dict[str, ProbeEstimate], explicit: bool,
+         cost_exponent: float = 3.0) -> Need:
+    """The cheapest factors that bring one result's bar within ``TARGET`` x ``tolerance`` (absolute):
+    each probed source takes one of :data:`SHARES` of the tolerance and the mesh the rest, and the
+    split whose run costs least (mesh factor^``cost_exponent`` x each axis's factor^:data:`AXIS_COST`)
+    wins."""
     if not mesh.ok:
         return Need(refusal=mesh.note)
-    out = Need()
-    left = TARGET * tolerance
-    for axis, probe in probes.items():
-        if explicit and axis == "time":
-            continue
+    active = {a: p for a, p in probes.items() if not (explicit and a == "time")}
+    for axis, probe in active.items():
         if probe.ladder is not None and not probe.ladder.ok:
             return Need(refusal=f"the {axis} probes: {probe.ladder.note}", axis=axis)
-        f = probe.factor_for(SHARE * tolerance)
-        if not math.isfinite(f):
-            return Need(refusal=f"the {axis} probes: {probe.ladder.note}; their bar {probe.bound:.4g} exceeds "
-                                f"the tolerance's share {SHARE * tolerance:.4g} at any setting", axis=axis)
-        out.factors[axis] = f
-        left -= probe.bound_at(f)
-    h = mesh.size_for(left)
-    if h is None:
-        out.refusal = (f"{mesh.note}; the bar {mesh.bar:.4g} exceeds the tolerance's share {left:.4g}: no mesh "
-                       f"is predicted to meet it")
-        return out
-    out.factors["mesh"] = max(1.0, 1.0 / h)
-    return out
+    best, why = None, Need(refusal=f"{mesh.note}; the bar {mesh.bar:.4g} exceeds the tolerance's share: no mesh "
+                                   f"is predicted to meet it")
+    for shares in itertools.product(SHARES, repeat=len(active)):
+        factors, left = {}, TARGET * tolerance
+        for (axis, probe), share in zip(active.items(), shares):
+            f = probe.factor_for(share * tolerance)
+            if not math.isfinite(f):
+                why = Need(refusal=f"the {axis} probes: their bar {probe.bound:.4g} exceeds "
+                                   f"{share * tolerance:.4g} at any setting", axis=axis)
+                break
+            factors[axis] = f
+            left -= probe.bound_at(f)
+        else:
+            h = mesh.size_for(left) if left > 0 else None
+            if h is None:
+                continue
+            factors["mesh"] = max(1.0, 1.0 / h)
+            cost = factors["mesh"] ** cost_exponent * math.prod(factors[a] ** AXIS_COST[a] for a in active)
+            if best is None or cost < best[0]:
+                best = (cost, factors)
+    return Need(factors=best[1]) if best is not None else why
 
 
 def final_factors(needs: list[Need], finest: float, exact: Callable[..., float]) -> dict[str, float]:
