@@ -12,7 +12,7 @@ The references:
   et al. (2021), given to 5 and 4 digits: half a unit of their last digit is their precision;
 * the punch (demos/punch_stretching.toml): converged in the increments as well as the mesh, since both
   results depend on the increments more than on the mesh (the scene's 40 increments leave the force
-  0.18 % low and the thinnest point's strain 3 % high; a study of refine 4, 6, 8 at those increments
+  0.17 % low and the thinnest point's strain 1.5 % too large at refine 4; a study of refine 4, 6, 8 at those increments
   misses it). Five runs: refine 4 at 4, 8 and 16 times the scene's increments (Richardson over the
   increments counted), refine 2 and 3 at 16 times (the mesh's correction, Richardson or the finest);
   the precision is the spread between the extrapolation at the observed order and at first order,
