@@ -43,8 +43,9 @@ class Key:
     when_analysis: tuple | None = None
     scale: float = 1.0              # file units -> internal units; the value as written stays in <name>_as_written
     analysis_default: dict | None = None   # {analysis type: default} when the default depends on it
-    #: a discretisation setting: +1 a larger value is finer, -1 a smaller one, 0 one that orders nothing
-    #: (a grading); None: not a discretisation setting (the problem itself, or a solver tolerance)
+    #: a discretisation or solver setting that orders runs from coarse to fine (``fenics-plast study``): +1
+    #: a larger value is finer, -1 a smaller one, 0 one that orders nothing (a grading); None: the problem
+    #: itself (a material, a load), which changes the answer rather than its accuracy
     refines: int | None = None
     #: the error source a discretisation setting controls, refined together by ``fenics-plast run
     #: --accuracy``: "mesh", "time" or "contact" (the penalty's compliance); None: not refined by it
