@@ -25,6 +25,7 @@ from fenics_plast.accuracy.ladder import ladder_settings
 from fenics_plast.accuracy.plan import Need, bar_parts, final_factors, need, predicted_cost, round_up
 from fenics_plast.accuracy.estimate import SAFETY
 from fenics_plast.problem import load_problem
+from scene_runs import needs_mpirun
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -295,3 +296,19 @@ def test_taylor_bar_radius_within_one_percent_of_the_converged_answer(tmp_path):
           f"{acc['cost_ratio']:.2f}")
     assert abs(res["value"] - 7.2259) <= res["error_bar"] and abs(res["value"] / 7.2259 - 1) < 0.01
     assert "time_in_mesh" in res["parts"] and acc["cost_ratio"] < 2.5
+
+
+@needs_mpirun
+def test_two_ranks_give_the_serial_values_and_bars(tmp_path):
+    """--np 2: every run of the ladder on two ranks; the value and the bar of the bore's reaction as the
+    serial request's to 1e-6 (the runs agree to the Newton tolerance)."""
+    values = {}
+    for np_ranks in (1, 2):
+        out = tmp_path / f"np{np_ranks}"
+        r = run_cli(REPO / "demos" / "thick_cylinder.toml", "--accuracy", "inner_rx_N=1%", "--np", np_ranks,
+                    "--out", out)
+        assert r.returncode == 0, r.stdout + r.stderr
+        res = json.loads((out / "accuracy.json").read_text())["results"]["inner_rx_N"]
+        values[np_ranks] = (res["value"], res["error_bar"])
+    (v1, b1), (v2, b2) = values[1], values[2]
+    assert abs(v2 / v1 - 1) < 1e-6 and abs(b2 / b1 - 1) < 1e-6, values

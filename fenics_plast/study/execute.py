@@ -117,7 +117,7 @@ def execute(run: Run, scene: Path, sets: list[str], run_dir: Path, np_ranks: int
     else:
         make_dir(run_dir, root=root)
     mark_results_folder(run_dir, None)      # the run's folder (run.log goes in first): a results folder
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    env = _run_environment(np_ranks)
     t0 = time.perf_counter()
     with open_write(run_dir / "run.log", root=root, encoding="utf-8") as log:
         proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
@@ -141,6 +141,16 @@ def execute(run: Run, scene: Path, sets: list[str], run_dir: Path, np_ranks: int
                   process_time_s=elapsed, output_tail=output[-4000:])
     write_atomic(record_path, json.dumps(record, indent=1), root=root, fsync=False)
     return run
+
+
+def _run_environment(np_ranks: int) -> dict[str, str]:
+    """The environment of a run: this process's, root allowed to run mpirun; under mpirun without the
+    MPI variables of this process (``OMPI_*``, ``PMIX_*``, ``OPAL_*``: a process that initialised MPI as a
+    singleton, ``run --accuracy`` or a test, has them, and mpirun started under them fails at once)."""
+    env = dict(os.environ)
+    if np_ranks > 1:
+        env = {k: v for k, v in env.items() if not k.startswith(("OMPI_", "PMIX_", "OPAL_"))}
+    return dict(env, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
 
 
 def _kill(proc: subprocess.Popen) -> None:
