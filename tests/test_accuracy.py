@@ -1,14 +1,16 @@
 """Accuracy on demand (fenics_plast.accuracy, ``run --accuracy``).
 
 (a) The estimate on closed forms: f(h) = f_ext + A h^p through three or more levels gives p and f_ext
-back, a bar that brackets the error, the mesh size whose bar meets a tolerance; an oscillating or
-slowly converging ladder is refused or given the range rule; a probe's bound on a first-order source.
-(b) The plan: factors rounded to whole cell counts, the time and penalty axes refined when they take
-more than their share, an explicit run's time step inside the mesh's error.
+back, a bar that brackets the error, the mesh size whose bar meets a tolerance; an order above the
+theoretical one gives the bar at that order; an oscillating or slowly converging ladder is refused or
+given the range rule; a probe's bound on a first-order source, and its own ladder where measured.
+(b) The plan: the tolerance split where the run costs least, factors rounded to whole cell counts, an
+explicit run's time step inside the mesh's error.
 (c) The axes of the shipped scenes, read from the schema's declarations.
-(d) The command on the thick cylinder (static, fast): every tolerance met, the reaction force within its
-bar of Hill's closed form in the current radii, runs reused when asked again, bad input refused
-(exit 2, nothing written), and a post-neck force refused with its message (slow).
+(d) The command on the thick cylinder (static, fast): met, the reaction within its bar of a finer run
+and near Hill's closed form, runs reused when asked again, a final run over the time budget refused,
+bad input refused (exit 2, nothing written), serial = 2 ranks; a post-neck force refused with the
+table; the Taylor bar against Foulk et al.'s converged radius (slow).
 """
 import json
 import math
