@@ -151,7 +151,8 @@ def main() -> None:
     for r in rows:
         print(_line(r))
     n = len(done)
-    print(f"\n{n} of {len(rows)} requests reported a value with its bar (the others refused); the bar brackets the reference in "
+    print(f"\n{n} of {len(rows)} requests reported a value with its bar (the others refused); the bar "
+          f"brackets the reference in "
           f"{sum(r['brackets'] for r in done)} of {n}, the achieved error is within the tolerance in "
           f"{sum(r['within'] for r in done)} of {n}; refused or not met: "
           f"{sum(r['status'] != 'met' for r in rows)}")

@@ -23,13 +23,15 @@ Modules, in the order a request goes through them:
 from __future__ import annotations
 
 from .driver import MAX_FINALS, run_accuracy
-from .probes import MAX_PROBE_LEVELS
-from .estimate import MIN_ORDER, SAFETY, THEORETICAL_ORDER, SAFETY_OSCILLATING, MeshEstimate, ProbeEstimate, mesh_estimate, probe_estimate
+from .estimate import (MIN_ORDER, SAFETY, SAFETY_OSCILLATING, THEORETICAL_ORDER, MeshEstimate, ProbeEstimate,
+                       mesh_estimate, probe_estimate)
 from .ladder import LADDER_RATIO, PROBE_RATIO, Setting
 from .plan import SHARE, TARGET
+from .probes import MAX_PROBE_LEVELS
 from .report import Outcome, lines
 from .tolerance import AccuracyError, Tolerance, parse_tolerance
 
-__all__ = ["run_accuracy", "MAX_FINALS", "MAX_PROBE_LEVELS", "MIN_ORDER", "THEORETICAL_ORDER", "SAFETY", "SAFETY_OSCILLATING", "MeshEstimate", "ProbeEstimate",
-           "mesh_estimate", "probe_estimate", "LADDER_RATIO", "PROBE_RATIO", "Setting", "SHARE", "TARGET", "Outcome",
-           "lines", "AccuracyError", "Tolerance", "parse_tolerance"]
+__all__ = ["run_accuracy", "MAX_FINALS", "MAX_PROBE_LEVELS", "MIN_ORDER", "THEORETICAL_ORDER", "SAFETY",
+           "SAFETY_OSCILLATING", "MeshEstimate", "ProbeEstimate", "mesh_estimate", "probe_estimate",
+           "LADDER_RATIO", "PROBE_RATIO", "Setting", "SHARE", "TARGET", "Outcome", "lines", "AccuracyError",
+           "Tolerance", "parse_tolerance"]

@@ -2,8 +2,8 @@
 meets every tolerance, what it is predicted to cost, and the error bar of a result at a setting.
 
 Mesh sizes are relative: the scene's own mesh is h = 1, a mesh refined by a factor F has h = 1/F
-(F exact on the smallest cell count, :meth:`fenics_plast.accuracy.axes.Axis.exact`). The error bar of a result at a setting is
-the sum of its sources' (:mod:`.estimate`):
+(F exact on the smallest cell count, :meth:`fenics_plast.accuracy.axes.Axis.exact`). The error bar of
+a result at a setting is the sum of its sources' (:mod:`.estimate`):
 
 * the mesh's, from the three-level estimate at that h;
 * each probed source's bound at the setting's factor on its axis. In an explicit run the stable
