@@ -35,7 +35,7 @@ from ..study.references import richardson
 
 #: safety factor on a monotone three-level estimate (Roache's GCI, three or more grids)
 SAFETY = 1.25
-#: the error bar of an oscillating or round-off-converged ladder, in ranges of its three values
+#: the error bar of an oscillating or round-off-converged ladder, in ranges of its values
 #: (Eça and Hoekstra 2014)
 SAFETY_OSCILLATING = 3.0
 #: the lowest observed order trusted: below it the ladder is not in the asymptotic range
