@@ -65,22 +65,19 @@ CASES = {
 }
 
 
-def _time_sets(factor: int) -> list[str]:
-    """The punch's increments refined ``factor`` times (analysis and both steps)."""
-    return [f"analysis.increments={40 * factor}", f"analysis.max_increment={0.05 / factor:g}",
-            f"steps.to_20mm.increments={20 * factor}", f"steps.to_40mm.increments={20 * factor}"]
-
-
 def mesh_and_time_reference(case: Case, out: Path) -> tuple[dict, dict, str]:
     """The punch's reference converged in the increments and the mesh (see the module docstring)."""
     from fenics_plast.accuracy import mesh_estimate
+    from fenics_plast.accuracy.axes import scene_axes
+    from fenics_plast.problem import load_problem
     from fenics_plast.study.execute import Run, execute
+    time = scene_axes(load_problem(ROOT / case.scene))["time"]      # the scene's increments, refined by a factor
     runs = {}
     for refine, factor in ((4, 4), (4, 8), (4, 16), (3, 16), (2, 16)):
         name = f"refine-{refine}_time-{factor}"
         run = Run(name=name, label=name, settings={})
         execute(run, ROOT / case.scene, ["output.xdmf=false", "output.plots=false", f"mesh.refine={refine}",
-                                         *_time_sets(factor)], out / name, reuse=True, root=out)
+                                         *time.overrides(factor)], out / name, reuse=True, root=out)
         runs[name] = run
     values, precision = {}, {}
     in_time = [runs[f"refine-4_time-{f}"] for f in (4, 8, 16)]

@@ -29,9 +29,9 @@ import time
 from pathlib import Path
 from typing import Callable, Sequence
 
-from .output import LOCK, OutputDirError
+from .output import LOCK, OutputDirError, check_out_dir, make_out_dir, remove_created
 
-__all__ = ["RunLock", "RESUME_WAIT_S", "this_process", "process_running"]
+__all__ = ["RunLock", "RESUME_WAIT_S", "this_process", "process_running", "take_results_folder"]
 
 #: how long a resumed run waits for the processes of a killed run that still hold its folder [s]
 RESUME_WAIT_S = 30.0
@@ -188,3 +188,21 @@ def _holder(held, host: str) -> dict | None:
     if boot is not None and _boot_id() is not None and boot != _boot_id():
         return {"who": who + " before a reboot", "running": False, "elsewhere": False}
     return {"who": who, "running": any(process_running(p, s) for p, s in processes), "elsewhere": False}
+
+
+def take_results_folder(out: Path, scene: str, kind: str, names: Sequence[str], overwrite: bool = False,
+                        log: Callable[[str], None] = print) -> RunLock:
+    """The results folder ``out`` of a study or an accuracy request (``kind``) checked
+    (:func:`fenics_plast.output.check_out_dir`, ``names``: the files it writes), created, and locked (one
+    writer per folder; a lock left by a killed process is taken over, ``log``-ged). OutputDirError,
+    with nothing left behind, when any of that is refused."""
+    check_out_dir(out, scene, overwrite=overwrite, kind=kind, names=names)
+    created = make_out_dir(out)
+    try:
+        lock = RunLock.acquire(out)
+    except OutputDirError:
+        remove_created(created)
+        raise
+    if lock.warning:
+        log(lock.warning)
+    return lock

@@ -27,8 +27,8 @@ from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
 from ..out_files import LinkRefused, make_dir
-from ..output import OutputDirError, check_out_dir, make_out_dir, mark_results_folder, remove_created
-from ..run_lock import RunLock
+from ..output import OutputDirError, mark_results_folder
+from ..run_lock import take_results_folder
 from .axes import scene_axes
 from .estimate import THEORETICAL_ORDER, MeshEstimate, ProbeEstimate, mesh_estimate, probe_estimate
 from .ladder import Ladder, Setting, ladder_settings
@@ -66,7 +66,6 @@ class _State:
     levels: list[Setting]
     probes: dict[str, Setting]
     order_cap: float
-    sizes: dict[str, float] = field(default_factory=dict)            # run name -> relative h
     mesh: dict[str, MeshEstimate] = field(default_factory=dict)
     probe: dict[str, dict[str, ProbeEstimate]] = field(default_factory=dict)
 
@@ -97,18 +96,9 @@ def run_accuracy(scene: str | Path, tolerances: Sequence[Tolerance], out: str | 
         raise AccuracyError("--np must be >= 1")
     out = Path(out)
     try:
-        check_out_dir(out, problem.name, overwrite=overwrite, kind="accuracy", names=ACCURACY_FILES)
+        lock = take_results_folder(out, problem.name, "accuracy", ACCURACY_FILES, overwrite=overwrite, log=log)
     except OutputDirError as e:
         raise AccuracyError(str(e)) from None
-    created = []
-    try:
-        created = make_out_dir(out)
-        lock = RunLock.acquire(out)
-    except OutputDirError as e:
-        remove_created(created)
-        raise AccuracyError(str(e)) from None
-    if lock.warning:
-        log(lock.warning)
     try:
         fingerprint = _fingerprint(problem, sets, np_ranks)
         reuse = _earlier_fingerprint(out) == fingerprint
@@ -183,7 +173,6 @@ def _request(problem, tol: dict[str, Tolerance], ladder: Ladder, outcome: Outcom
                 _report(outcome, tol, ladder, st, levels[-1], levels[-1].name, explicit, predicted_bar=False)
                 return
             final_name = run.name
-            st.sizes[final_name] = 1.0 / setting.factor("mesh")
         outcome.final = final_name
         outcome.final_setting = dict(setting.factors)
         outcome.final_overrides = setting.overrides(ladder.axes)
@@ -210,10 +199,9 @@ def _estimate(tol: dict[str, Tolerance], ladder: Ladder, st: _State, outcome: Ou
                            "fix what stopped it (its run.log is in runs/" + run.name + "/), or start the ladder "
                            "from another mesh with --set mesh.refine=...")
             return False
-        st.sizes[s.name] = 1.0 / s.factor("mesh")
     for key in tol:
         values = [ladder.runs[s.name].value(key) for s in levels]
-        st.mesh[key] = mesh_estimate([st.sizes[s.name] for s in levels],
+        st.mesh[key] = mesh_estimate([1.0 / s.factor("mesh") for s in levels],
                                      [v if isinstance(v, (int, float)) else float("nan") for v in values],
                                      order_cap=st.order_cap)
         st.probe[key] = {a: probe_estimate(a, [1.0, effective_factor(a, p.name, ladder, levels[0].name, explicit)],
@@ -314,16 +302,17 @@ def _report(outcome: Outcome, tol: dict[str, Tolerance], ladder: Ladder, st: _St
     when the final refines the mesh alone, re-estimated from every mesh run (the ladder's and the
     finals'), else ``predicted_bar`` from the ladder's three meshes at the final's size."""
     outcome.results = []
-    h = st.sizes[final_name]
+    size = {n: 1.0 / ladder.setting_of[n].factor("mesh") for n in ladder.runs}     # relative mesh sizes
+    h = size[final_name]
     meshes = [n for n in (*[s.name for s in st.levels], *ladder.final_names)
-              if n in st.sizes and ladder.runs[n].ok and ladder.setting_of[n].others_at_one()]
-    meshes = sorted(dict.fromkeys(meshes), key=lambda n: -st.sizes[n])
+              if ladder.runs[n].ok and ladder.setting_of[n].others_at_one()]
+    meshes = sorted(dict.fromkeys(meshes), key=lambda n: -size[n])
     for key, t in tol.items():
         value = ladder.runs[final_name].value(key)
         est = st.mesh[key]
         mesh_bar, mesh_note = est.bar_at(h), "predicted from the ladder's meshes" if predicted_bar else ""
         if not predicted_bar and len(meshes) > len(st.levels):
-            again = mesh_estimate([st.sizes[n] for n in meshes], [ladder.runs[n].value(key) for n in meshes],
+            again = mesh_estimate([size[n] for n in meshes], [ladder.runs[n].value(key) for n in meshes],
                                   order_cap=st.order_cap)
             if again.ok:
                 est, mesh_bar = again, again.bar_at(h)

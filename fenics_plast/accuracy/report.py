@@ -159,11 +159,12 @@ def write_markdown(o: Outcome, path: Path) -> None:
             md.append(f"| `{r.key}` | {_num(r.value, 6)} ± {_num(r.bar, 2)} | "
                       f"{f'{rel * 100:.2g} %' if rel else '–'} | {r.tolerance.text} | {'yes' if r.met else 'no'} | "
                       f"{r.kind} | {_num(r.order, 3)} | {_num(r.extrapolated, 6)} |")
+        sources = list(dict.fromkeys(s for r in o.results for s in r.parts))
         md += ["", "Where each error bar comes from (absolute, the result's unit):", "",
-               "| result | " + " | ".join(SOURCES[s] for s in _sources(o)) + " | the mesh part |",
-               "|---|" + "---|" * (len(_sources(o)) + 1)]
+               "| result | " + " | ".join(SOURCES[s] for s in sources) + " | the mesh part |",
+               "|---|" + "---|" * (len(sources) + 1)]
         for r in o.results:
-            md.append(f"| `{r.key}` | " + " | ".join(_num(r.parts.get(s), 2) for s in _sources(o))
+            md.append(f"| `{r.key}` | " + " | ".join(_num(r.parts.get(s), 2) for s in sources)
                       + f" | {r.mesh_note or 'from the ladder'} |")
         md.append("")
     if o.final:
@@ -185,11 +186,3 @@ def write_markdown(o: Outcome, path: Path) -> None:
            + "; ".join(f"{a}: " + ", ".join(f"`{k}` = {v:g}" for k, v in s.items()) for a, s in o.axes.items()), ""]
     write_atomic(path, "\n".join(md) + "\n", root=path.parent, fsync=False)
 
-
-def _sources(o: Outcome) -> list[str]:
-    seen = []
-    for r in o.results:
-        for s in r.parts:
-            if s not in seen:
-                seen.append(s)
-    return seen

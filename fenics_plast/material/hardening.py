@@ -30,7 +30,6 @@ import numpy as np
 from fenics_plast.hardening_laws import laws
 from fenics_plast.hardening_laws.johnson_cook import (JC_A, JC_B, JC_C, JC_CHI, JC_M, JC_N, JC_RATE0, JC_T0,
                                                       JC_TMELT, JC_TROOM)
-
 from fenics_plast.hardening_laws.hensel_spittel import (CELSIUS, HS_A, HS_EMIN, HS_M1, HS_M2, HS_M3, HS_M4, HS_M5,
                                                         HS_M7, HS_M8, HS_M9, HS_RMIN, HS_T0)
 
@@ -205,7 +204,8 @@ class Hardening:
 
     @property
     def initial_temperature(self) -> float:
-        """Temperature of a virgin point [K] (Johnson-Cook; 0 for the other laws: no temperature)."""
+        """Temperature of a virgin point [K] (the thermal laws: Johnson-Cook, Hensel-Spittel; 0 for the
+        other laws: no temperature)."""
         return float(self.params[_T0[self.law]]) if self.thermal else 0.0
 
     def johnson_cook(self, eps_p, rate=0.0, T=None):

@@ -13,9 +13,8 @@ from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
 from ..out_files import LinkRefused, make_dir
-from ..output import (LOCK, MARKER, OutputDirError, STUDY_FILES, check_out_dir, make_out_dir, mark_results_folder,
-                      remove_created, remove_listed)
-from ..run_lock import RunLock
+from ..output import LOCK, MARKER, OutputDirError, STUDY_FILES, mark_results_folder, remove_listed
+from ..run_lock import take_results_folder
 from .execute import Run, execute, prevalidate
 from .plan import StudyError, Vary, combinations, non_discretisation_keys, run_label, run_name, study_command
 from .references import references
@@ -81,21 +80,13 @@ def run_study(scene: str | Path, varies: Sequence[Vary], out: str | Path, sets: 
     out = Path(out)
     combos = combinations(varies)
     names = [run_name(i, combo, varies) for i, combo in enumerate(combos)]
-    try:
-        check_out_dir(out, base.name, overwrite=overwrite, kind="study",
-                      names=[*STUDY_FILES, *(f"runs/{n}/{f}" for n in names for f in
-                                             (MARKER, LOCK, "run.log", "study_run.json", "summary.json"))])
+    try:                                     # one study (or run) per folder at a time
+        lock = take_results_folder(out, base.name, "study",
+                                   [*STUDY_FILES, *(f"runs/{n}/{f}" for n in names for f in
+                                                    (MARKER, LOCK, "run.log", "study_run.json", "summary.json"))],
+                                   overwrite=overwrite, log=log)
     except OutputDirError as e:
         raise StudyError(str(e)) from None
-    created = []
-    try:
-        created = make_out_dir(out)
-        lock = RunLock.acquire(out)          # one study (or run) per folder at a time
-    except OutputDirError as e:
-        remove_created(created)
-        raise StudyError(str(e)) from None
-    if lock.warning:
-        log(lock.warning)
     try:
         try:
             mark_results_folder(out, base.name, kind="study")
