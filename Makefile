@@ -1,4 +1,4 @@
-# fenics-plast: make demo | test | test-slow | bench | keys | fresh-check[-bookworm|-trixie]
+# fenics-plast: make demo | test | test-slow | bench | keys | docs | fresh-check[-bookworm|-trixie]
 SHELL := /bin/bash
 PY    := .venv/bin/python
 FP    := .venv/bin/fenics-plast
@@ -7,7 +7,7 @@ FP    := .venv/bin/fenics-plast
 export OMPI_ALLOW_RUN_AS_ROOT := 1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
 
-.PHONY: install demo test test-slow bench keys fresh-check fresh-check-bookworm fresh-check-trixie clean
+.PHONY: install demo test test-slow bench keys docs fresh-check fresh-check-bookworm fresh-check-trixie clean
 
 install:
 	bash scripts/install.sh
@@ -36,9 +36,15 @@ bench: install
 keys: install
 	$(PY) -m fenics_plast.keys_doc
 
-# The README's two commands on a new minimal Debian root (debootstrap + chroot, the Dockerfile's steps),
-# Debian 12 bookworm and Debian 13 trixie at the same time, or one of them; needs root. Times: see
-# the README ("Set-up and run").
+# The user guide (docs/*.md, docs/guide/*.md) with Debian's Sphinx and MyST into docs/_build/html/: every page
+# read again (-E), warnings as errors (a broken link or anchor, a literal include whose file or marker is gone).
+docs: install
+	$(PY) -m sphinx -W --keep-going -E -q -b html docs docs/_build/html
+	@echo "make docs: open $(CURDIR)/docs/_build/html/index.html in a browser"
+
+# `make docs` and the README's two commands on a new minimal Debian root (debootstrap + chroot, the
+# Dockerfile's steps), Debian 12 bookworm and Debian 13 trixie at the same time, or one of them; needs
+# root. Times: see docs/guide/install.md ("Fresh-machine check").
 fresh-check:
 	bash scripts/fresh_root_check.sh
 
@@ -49,4 +55,4 @@ fresh-check-trixie:
 	bash scripts/fresh_root_check.sh trixie
 
 clean:
-	rm -rf results
+	rm -rf results docs/_build

@@ -8,7 +8,7 @@ platform (Debian release, dolfinx, PETSc, MUMPS's petsc4py, numba, numpy) with, 
 and range of: the explicit step loop (summary ``step_loop_time_s``), the run's wall time (summary
 ``wall_time_s``: mesh to results) and the process time (imports included), and the scene's key results.
 Run it on Debian 12 and on Debian 13 one after the other on the same machine to compare the two
-platforms (README, "Platforms"). A benchmark: it asserts nothing.
+platforms (docs/PLATFORMS.md). A benchmark: it asserts nothing.
 """
 from __future__ import annotations
 

@@ -247,7 +247,7 @@ def main():
     ap.add_argument("--scenes", nargs="*", default=list(SCENES), choices=list(SCENES))
     ap.add_argument("--before", default=BEFORE, help="git revision of the 'before' column (none: skip it)")
     ap.add_argument("--blas", choices=list(BLAS_DIRS), default=None,
-                    help="force this BLAS on both runs (default: the system's, see README, Dependencies)")
+                    help="force this BLAS on both runs (default: the system's; docs/guide/install.md, Dependencies)")
     ap.add_argument("--before-blas", nargs="+", choices=list(BLAS_DIRS), default=None,
                     help="a 'before' column on each of these BLAS (reference: the code and install as they were)")
     ap.add_argument("--rates", action="store_true", help="Newton's observed convergence orders of --scenes")

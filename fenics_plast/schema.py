@@ -107,7 +107,7 @@ class Table:
 
 _FORCE_UNITS = ("N", "kN")
 VALUE_DOC = ("a number, an expression of x, y, z, t in quotes (\"3.0*t\"; x, y, z are the reference "
-             "(initial) coordinates [mm]; the grammar is in the README, 'Expressions'), or a table "
+             "(initial) coordinates [mm]; the grammar: docs/guide/boundary-conditions.md, 'Expressions'), or a table "
              "{ t = [...], value = [...] } (piecewise linear, constant outside)")
 
 

@@ -14,8 +14,8 @@
 #   3. run in it, with chroot, the Dockerfile's own steps: this script reads the Dockerfile (its ARG
 #      DEBIAN_RELEASE set to the suite, as `docker build --build-arg` would) and runs its WORKDIR, ENV
 #      and RUN lines (COPY . . is step 2), so the two cannot drift apart;
-#   4. run the README's two commands there: `make demo`, then `make test` (and, with FRESH_ROOT_SLOW=1,
-#      the slow tests: `pytest -m slow`).
+#   4. run there `make docs` (the user guide, warnings as errors), then the README's two commands: `make demo`,
+#      then `make test` (and, with FRESH_ROOT_SLOW=1, the slow tests: `pytest -m slow`).
 # With no argument both suites run at the same time, each in its own root (its lines prefixed with
 # [suite]); one failing does not stop the other, and the exit status is non-zero if either failed.
 #
@@ -287,7 +287,7 @@ if [ "$dry_run" = 1 ]; then
         mirror "$mirror (from $mirror_from)" "security mirror" "$security_line" \
         WORKDIR "$workdir" ENV "${env_assign[*]}"
     for i in "${!runs[@]}"; do printf '  %-16s %s\n' "RUN $((i + 1))" "${runs[i]}"; done
-    printf '  %-16s %s\n' "then" "make demo; make test" \
+    printf '  %-16s %s\n' "then" "make docs; make demo; make test" \
         cache "$cache/$suite/{apt-archives,debootstrap,logs}" "root's sources" "/etc/apt/sources.list.d/debian.sources:"
     root_sources "/usr/share/keyrings/debian-archive-keyring.(pgp|gpg: the one the root has)" | sed 's/^/      | /'
     exit 0
@@ -415,6 +415,7 @@ step "debootstrap minbase" bootstrap
 step "mount /proc /sys /dev" mount_all
 step "copy checkout" copy_checkout
 step "Dockerfile RUN steps" dockerfile_runs
+step "make docs" in_root "make docs"
 step "make demo" in_root "make demo"
 step "make test" in_root "make test"
 tail -n 3 "$logs/$((${#step_names[@]}))-make_test.log" | sed 's/^/    | /'

@@ -28,7 +28,8 @@ PKGS=(python3-dolfinx python3-petsc4py python3-mpi4py python3-gmsh python3-numba
       python3-nbclient python3-ipykernel python3-nbformat python3-yaml     # the demo notebook
       python3-hypothesis python3-tomli-w   # tests/test_scene_fuzz.py: property-based fuzzing, TOML writer
       python3-scipy                        # the bar demo's root finding, the Johnson-Cook test's ODE reference
-      python3-h5py                         # reading fields.h5 in Python (README, tests/test_fields_h5.py)
+      python3-h5py                         # reading fields.h5 in Python (docs/guide/outputs.md, tests/test_fields_h5.py)
+      python3-sphinx python3-myst-parser   # `make docs`: the user guide from docs/*.md
       libopenblas0-serial)                 # optimised BLAS/LAPACK for MUMPS (the reference BLAS is ~3x slower)
 
 missing=()

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Run every shipped scene (demos/*.toml) and the punch at mu = 0.15 and 0.3 into OUT/<scene>/, for
-# comparing platforms with scripts/compare_results.py (README, "Platforms"):
+# comparing platforms with scripts/compare_results.py (docs/PLATFORMS.md):
 #
 #   bash scripts/platform_runs.sh OUT            # with .venv/bin/python, or PY=/path/to/python
 #

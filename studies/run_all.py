@@ -78,7 +78,7 @@ def run(name: str, reuse: bool) -> int:
 
 
 def _embed(name: str) -> str:
-    """The study's study.md without its title, headings two levels down, image path from docs/."""
+    """The study's study.md without its title, headings one level down (under the page's own), image path from docs/."""
     path = REPO / DOCS / name / "study.md"
     if not path.is_file():
         return f"*(study `{name}` not run yet: `.venv/bin/python studies/run_all.py {name}`)*\n"
@@ -86,7 +86,7 @@ def _embed(name: str) -> str:
     out = []
     for ln in lines[1:]:
         if ln.startswith("#"):
-            ln = "##" + ln
+            ln = "#" + ln
         ln = ln.replace("](study.png)", f"](studies/{name}/study.png)")
         out.append(ln)
     return "\n".join(out).strip() + "\n"

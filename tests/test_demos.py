@@ -101,7 +101,7 @@ def test_bar_tension_demo(serial):
 def test_punch_stretching_demo(serial):
     s = serial("punch_stretching")
     assert s["friction"] == 0.15 and s["punch_displacement_mm"] == pytest.approx(20.0, rel=1e-12)
-    # fine mesh (60 x 2), mu = 0.15 at 20 mm: 25.66 kN (README); 20 x 1 cells: 26.46 kN
+    # fine mesh (60 x 2), mu = 0.15 at 20 mm: 25.66 kN (docs/guide/results.md); 20 x 1 cells: 26.46 kN
     assert s["punch_force_kN"] == pytest.approx(25.66, rel=0.04)
     assert s["max_penetration_mm"] < 0.01 * 1.0                # < 1 % of the thickness
     # friction never exceeds the Coulomb bound; here part of the contact zone sticks

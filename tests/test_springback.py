@@ -192,7 +192,7 @@ def test_springback_coarse(tmp_path):
 @pytest.mark.slow
 def test_springback_full(tmp_path):
     """The shipped scene: its loading reproduces the punch scene with mu = 0.15 (the retraction
-    leg of the punch path changes nothing before t = 1) and the springback is as in the README."""
+    leg of the punch path changes nothing before t = 1) and the springback is as in docs/guide/results.md."""
     out = tmp_path / "springback"
     summary, h = run_scene(SPRINGBACK, out)
     springback, change = check_springback(summary, h, thickness_profiles(out))
@@ -203,7 +203,7 @@ def test_springback_full(tmp_path):
     assert summary["thickness_strain_at_start_at_t_1"] == pytest.approx(punch["thickness_strain_at_start"],
                                                                          rel=1e-8)
     assert summary["max_eqps"] == pytest.approx(punch["max_eqps"], rel=1e-8)
-    # measured (README): 39.999 mm at 40 mm, 39.294 mm after, pole ln(t/t0) -0.3893 -> -0.3851
+    # measured (docs/guide/results.md): 39.999 mm at 40 mm, 39.294 mm after, pole ln(t/t0) -0.3893 -> -0.3851
     assert springback == pytest.approx(0.70528, abs=1e-4)
     assert summary["dome_height_mm"] == pytest.approx(39.29385, abs=1e-4)
     assert change[0] == pytest.approx(0.00414, abs=1e-5)

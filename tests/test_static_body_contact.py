@@ -59,8 +59,8 @@ def observed_orders(solver):
 
 def test_hertz_sphere_coarse_within_4_percent_newton_quadratic():
     """The coarse Hertz scene (0.1 mm cells at the contact, a ~ 0.5 mm): contact radius and peak pressure
-    within 4 % of Hertz's for the force it transmits (measured +3.0 % and -3.7 %; the README's table: 20 and
-    40 cells per mm bring them to -0.35 / -1.1 % and -0.17 / -0.52 %); Newton's last steps quadratic."""
+    within 4 % of Hertz's for the force it transmits (measured +3.0 % and -3.7 %; the table in docs/guide/results.md:
+    20 and 40 cells per mm bring them to -0.35 / -1.1 % and -0.17 / -0.52 %); Newton's last steps quadratic."""
     b = run_static("hertz_sphere.toml", "mesh.parameters.cells_contact=10")
     a, p0, a_h, p0_h = hertz_errors(b)
     assert abs(a / a_h - 1) < 0.04 and abs(p0 / p0_h - 1) < 0.04, (a, a_h, p0, p0_h)

@@ -4,7 +4,7 @@ the plane as its mirror image, so a node on the plane pressed into a facet tilte
 (2-D and 3-D); a quadrilateral face is four triangles about its centre (a face and its mirror image are
 split alike); both solvers build their master surfaces so from a scene's symmetry boundaries; the
 quarter-symmetric 3-D rod-on-rod equals the quarter bar on a frictionless rigid plane, with and without
-friction (coarse quarters; the demo's mesh: README), and 2 ranks repeat the serial run."""
+friction (coarse quarters; the demo's mesh: docs/guide/results.md), and 2 ranks repeat the serial run."""
 from pathlib import Path
 
 import numpy as np

@@ -1,5 +1,5 @@
-"""The README's tutorial scene (docs/tutorial/billet.toml + billet.geo) runs as written, and its
-frictionless variant equals the closed form of homogeneous upsetting.
+"""The user guide's tutorial scene (docs/guide/tutorial.md: docs/tutorial/billet.toml + billet.geo) runs as
+written, and its frictionless variant equals the closed form of homogeneous upsetting.
 
 Without friction the billet stays a cylinder: with the plastic strain incompressible and the elastic
 strain ~1e-3, the radius is R sqrt(h0/h) and the press force is sigma_y(eps) pi R^2 h0/h with the

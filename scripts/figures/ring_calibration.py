@@ -9,7 +9,7 @@ the inner diameter (%) against the height reduction (%) -> docs/figures/ring_cal
   no barrelling, in the manner of Hawkyard & Johnson 1967), dashed.
 
 Male & Cockcroft's measured charts (1964-65) are compared in shape and trend only (the digitised
-curves were not available to us), in the README.
+curves were not available to us), in docs/guide/results.md.
 
 The height reduction is measured on the ring (its top face, behind the die by the penalty
 penetration, 0.0016 mm), the inner diameter is the smallest one (extent "min" of the inner face).
