@@ -1,8 +1,10 @@
 """The user guide (docs/) and the README hold only what the package does (issue 39).
 
 * Every scene snippet of the guide is included from a shipped file (a MyST ``literalinclude``), never
-  written out in a code fence: the file is a scene the tests run, and the included part, read as TOML,
-  is the file's own (so a snippet cannot drift from a scene that works).
+  written out in a code fence: the file is a shipped scene (`make demo` runs every demos/*.toml,
+  tests/test_tutorial.py the tutorial's), validated here as `run` validates it, and each include's
+  start and end markers match one line of the file only (so a snippet cannot drift from a scene that
+  works, nor silently show another part of it).
 * Every ``fenics-plast`` command the guide and the README show parses with the command line's own parser,
   and its scene, with its ``--set`` overrides (and each value of a study's ``--vary``), passes the
   validation ``run`` does before it writes anything.
