@@ -4,9 +4,11 @@ python3-myst-parser: Sphinx 5.3 / MyST 0.18 on Debian 12, Sphinx 8.1 / MyST 4.0 
 The pages are the Markdown files of ``docs/`` (``docs/guide/*.md`` and the reference pages beside
 them); ``make docs`` builds them into ``docs/_build/html`` with warnings as errors, so a broken link,
 a missing page or a literal include whose marker text has gone fails the build. The Python API page
-shows each docstring as written (a literal block), not parsed as reStructuredText: the package's
-docstrings are plain text with units and shapes, and are read in the source as often as here.
+shows each docstring as written (a literal block, its cross-reference roles and literal quotes read off),
+not parsed as reStructuredText: the package's docstrings are plain text with units and shapes, read in the
+source as often as here, and a docstring need not be valid reStructuredText for the guide to build.
 """
+import re
 import sys
 from pathlib import Path
 
@@ -38,10 +40,21 @@ autodoc_member_order = "bysource"
 autodoc_default_options = {"members": True, "undoc-members": False}
 
 
+#: a cross-reference role in a docstring, :class:`~a.b.C` or :func:`a.b.f`, shown as its target's name
+_ROLE = re.compile(r":(?:py:)?(?:class|func|meth|mod|data|attr|exc|obj):`(~?)([^`]+)`")
+
+
+def _plain(line: str) -> str:
+    """A docstring line with its reStructuredText markup read off: roles as their names (``~`` keeps the
+    last part, as Sphinx shows it), ``literal`` as literal."""
+    line = _ROLE.sub(lambda m: m.group(2).rsplit(".", 1)[-1] if m.group(1) else m.group(2), line)
+    return line.replace("``", "")
+
+
 def _docstring_as_written(app, what, name, obj, options, lines):
-    """Show a docstring as a literal block, exactly as the source has it (see the module docstring)."""
+    """Show a docstring as a literal block, as the source has it less its markup (see the module docstring)."""
     if lines:
-        lines[:] = ["::", ""] + ["    " + line for line in lines] + [""]
+        lines[:] = [".. code-block:: text", ""] + ["    " + _plain(line) for line in lines] + [""]
 
 
 def setup(app):
