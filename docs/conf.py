@@ -26,18 +26,16 @@ source_suffix = {".md": "markdown"}
 root_doc = master_doc = "index"                  # master_doc: Sphinx 5's name for it
 exclude_patterns = ["_build", "studies/*/study.md", "tutorial"]
 myst_heading_anchors = 3                         # [text](page.md#a-heading) links to headings
-nitpicky = False
 
 html_theme = "alabaster"
 html_title = "fenics-plast user guide"
 html_theme_options = {"description": "Finite-strain elastoplasticity for metal forming and impact, on FEniCSx",
                       "fixed_sidebar": True, "page_width": "1200px", "sidebar_width": "250px"}
 html_sidebars = {"**": ["about.html", "navigation.html", "searchbox.html"]}
-html_static_path = []
 html_show_sourcelink = False
 
 autodoc_member_order = "bysource"
-autodoc_default_options = {"members": True, "undoc-members": False}
+autodoc_default_options = {"members": True}
 
 
 #: a cross-reference role in a docstring, :class:`~a.b.C` or :func:`a.b.f`, shown as its target's name
