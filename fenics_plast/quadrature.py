@@ -92,10 +92,15 @@ class QuadratureMap:
         #: (n,) or None: the factor 1 / (the increment's isotropic thermal stretch) each point's F_u takes
         #: (:mod:`fenics_plast.thermal.build`: theta_n / theta_n+1); None: no thermal expansion
         self.stretch = None
-        #: (n,) or None: J_theta, the thermal volume ratio of the stress-free state to the reference, by which
-        #: the material's Kirchhoff stress (per stress-free volume, tau = J_e sigma) and tangent are scaled to
-        #: the reference's (tau = J sigma, J = J_e J_theta): the solver's; None: 1
+        #: (n,) or None: J_theta, the thermal volume ratio of the stress-free state to the first mesh's
+        #: reference, by which the material's Kirchhoff stress (per stress-free volume, tau = J_e sigma) and
+        #: tangent are scaled to the reference's (tau = J sigma, J = J_e J_theta): the solver's; None: 1
         self.volume_scale = None
+        #: (n,) or None: J_ref, the volume ratio dv_ref / dV_0 of this mesh's reference to the first mesh's (a
+        #: remeshed body's reference is a deformed shape, :func:`fenics_plast.runner_static_remesh.remeshed`): the
+        #: solver's Cauchy stress is tau / (J_ref theta), theta = det Fbar from this reference, so tau and the
+        #: tangent are divided by it; None: 1 (the first mesh)
+        self.reference_volume = None
         # trivial dofmap: the material writes straight into the Functions' arrays (views)
         self.tau_values = (self.tau.x.array[: self.n * 9].reshape(self.n, 3, 3) if self.trivial_tau
                            else np.zeros((self.n, 3, 3)))
@@ -132,10 +137,11 @@ class QuadratureMap:
         self.material.update_into(Fu, self.binv, self.eqps, self.tau_values,
                                   self.binv_trial, self.eqps_trial, a, temp_n=self.temperature,
                                   temp=self.temperature_trial, dt=float(self.dt[0]))
-        if self.volume_scale is not None:       # Kirchhoff per stress-free volume -> per reference volume
-            self.tau_values *= self.volume_scale[:, None, None]
+        scale = self.stress_scale()
+        if scale is not None:                   # Kirchhoff per stress-free volume -> per reference volume
+            self.tau_values *= scale[:, None, None]
             if tangent:
-                a *= self.volume_scale[:, None, None, None, None]
+                a *= scale[:, None, None, None, None]
         bad = not np.isfinite(self.tau_values).all() or (tangent and not np.isfinite(a).all())
         # scatter_forward is collective: write on every rank before raising (a rank-local raise
         # here would deadlock the others)
@@ -144,6 +150,16 @@ class QuadratureMap:
             self._write(self.a, a, 81, self._qdofs_a, self.trivial_a)
         if bad:
             raise MaterialUpdateError(self._bad_cell_message(Fu, a if tangent else None))
+
+    def stress_scale(self):
+        """(n,) or None: the factor from the material's Kirchhoff stress (per stress-free volume) to the
+        solver's (per volume of this mesh's reference times J_ref): J_theta / J_ref (:attr:`volume_scale`,
+        :attr:`reference_volume`); None: 1."""
+        if self.reference_volume is None:
+            return self.volume_scale
+        if self.volume_scale is None:
+            return 1.0 / self.reference_volume
+        return self.volume_scale / self.reference_volume
 
     def _bad_cell_message(self, Fu, a) -> str:
         """Where the update failed: the first owned cell with a non-finite stress (or tangent), its

@@ -18,7 +18,8 @@ __all__ = ["remeshed", "resumed_build"]
 
 def remeshed(problem, comm, b, remesher, reason, quantities, build, log=None, progress=None) -> SimpleNamespace:
     """The run ``b`` (:func:`build_static`'s, at a converged load t) on a new mesh of its deformed outline:
-    the quadrature state transferred, the solver built anew (prescribed displacements counted from t,
+    the quadrature state and the reference volume ratio (:func:`_volume_ratio`) transferred, the solver built
+    anew (prescribed displacements counted from t,
     the contact pairs' penalties kept, their committed tractions carried to the new nodes,
     :func:`_carry_contact_history`; a [thermal] run's temperature field, :func:`_carry_temperature`), equilibrium restored at the same load (one Newton solve, no load change) and the
     jump of the one-column outputs across the remesh recorded (``quantities``: the old mesh's; ``build``:
@@ -42,6 +43,7 @@ def remeshed(problem, comm, b, remesher, reason, quantities, build, log=None, pr
                             fits=fits)
     rec.mesh_s = clock.lap()
     state, rec.transfer, transfer = remesher.transfer(b.mesh, x, s.qmap.degree, s.qmap.state(), new[0])
+    reference_volume = transfer.point_values(_volume_ratio(s), new[0])
     total = fem.Function(u.function_space)
     total.x.array[:] = u.x.array + b.u_before
     rec.transfer_s = clock.lap()
@@ -55,6 +57,7 @@ def remeshed(problem, comm, b, remesher, reason, quantities, build, log=None, pr
     nb.group_facets, nb.remesh_record, nb.since = new.group_facets, new.record, t
     s2 = nb.solver
     s2.qmap.set_state(state)
+    s2.qmap.reference_volume = reference_volume
     for k in ("increments", "cutbacks", "linesearch_retries", "total_iterations", "total_iterations_failed",
               "jacobians", "force_scale", "roundoff_floor"):
         setattr(s2, k, getattr(s, k))
@@ -76,6 +79,16 @@ def remeshed(problem, comm, b, remesher, reason, quantities, build, log=None, pr
     if b.thermal is not None:
         b.thermal.heat.close()
     return nb, rec, before
+
+
+def _volume_ratio(s):
+    """(owned points,) each point's volume ratio dv / dV_0 to the first mesh's reference: the solver's det Fbar
+    (theta, q1p0; J, q1) times its mesh's :attr:`~fenics_plast.quadrature.QuadratureMap.reference_volume`.
+    Carried to a new mesh as its reference volume: the Cauchy stress tau / (J_ref theta) goes on from the
+    old one's (taken as 1 on the new reference, the stress would jump by the elastic volume change, 0.2 %
+    in the billet at 300 MPa of pressure)."""
+    ratio = s.qp_jacobian().copy()
+    return ratio if s.qmap.reference_volume is None else ratio * s.qmap.reference_volume
 
 
 #: the share of a new mesh's out-of-balance force applied at each stage of a re-equilibration that did

@@ -120,6 +120,10 @@ def test_constants_and_linear_fields_exact(axisymmetric):
     lo, hi = report.ranges["eqps"]["old"]
     assert np.abs(clipped["eqps"] - np.clip(state["eqps"], lo, hi)).max() < 1e-12
     assert np.abs(clipped["temperature"] - 293.15).max() < 1e-12
+    # a scalar per point on its own (the reference volume ratio): the scalars' rule, the same values
+    ratio = 1.0 - 0.002 * p[:, 0] + 0.001 * p[:, 1]
+    expected = np.clip(1.0 - 0.002 * q[:, 0] + 0.001 * q[:, 1], *transfer._range(ratio))
+    assert np.abs(transfer.point_values(ratio, new) - expected).max() < 1e-12
 
 
 def test_deformed_coordinates_given_as_x():

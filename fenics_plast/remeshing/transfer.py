@@ -3,6 +3,7 @@ r"""State transfer from an old (deformed) 2-D quadrilateral mesh onto a new one 
 >>> t = StateTransfer(old_mesh, degree=2, axisymmetric=True)        # collective: gathers the old mesh
 >>> state, report = t.quadrature_state(qmap.state(), new_mesh)       # {name: (n_new,) + shape}
 >>> rho_new = t.cell_values(rho_old, new_mesh)                        # P0: (new owned cells,)
+>>> J_ref = t.point_values(J_old, new_mesh)                            # a scalar per point: (n_new,)
 >>> t.nodal_function(v_old, v_new)                                    # CG1 (velocities), in place
 
 The old mesh's CURRENT geometry (the deformed configuration, which becomes the new reference:
@@ -542,6 +543,15 @@ class StateTransfer:
                                      "new": self._range(_measure(rules[v.name], out[v.name]))}
             report.clipped[v.name] = self.body.comm.allreduce(clipped)
         return out, report
+
+    def point_values(self, old_values: np.ndarray, new_mesh) -> np.ndarray:
+        """A scalar at the quadrature points, (new owned points,) from (old owned points,), by the scalars'
+        rule of :meth:`quadrature_state` (clipped to the old range): e.g. the reference volume ratio."""
+        old_values = np.asarray(old_values, dtype=float)
+        nodal = self._continuous(old_values.reshape(-1, 1))
+        where = self._locate_points(quadrature_points(new_mesh, self.degree))
+        lo, hi = self._range(old_values)
+        return np.clip(bilinear(nodal, where.cells, where.xi)[:, 0], lo, hi)
 
     def cell_values(self, old_values: np.ndarray, new_mesh, conserve: bool = False) -> np.ndarray:
         """P0 values (new owned cells,) from P0 values (old owned cells,): constants per old cell

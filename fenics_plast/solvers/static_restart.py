@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import weakref
 
+import numpy as np
+
 from petsc4py import PETSc
 
 
@@ -22,15 +24,18 @@ class StaticRestart:
         """The state a resumed run needs, at a converged increment (collective; see
         fenics_plast.checkpoint): the owned entries of w, w_n, w_nm1 (displacement [mm] and, q1p0,
         dilatation), the committed quadrature-point state (``qmap.state()``: binv (n,3,3), eqps (n,), the
-        temperature (n,) [K] of Johnson-Cook materials), keyed by node, cell or point; the load factor,
+        temperature (n,) [K] of Johnson-Cook materials) and a remeshed body's reference volume ratio (n,)
+        (``qmap.reference_volume``; None on the first mesh), keyed by node, cell or point; the load factor,
         force scale [N], round-off floor [N], counters, the increment and cut-back records, and MUMPS
         ICNTL(14)."""
         from fenics_plast.checkpoint import Keyed, owned_keyed
         s = self.solver
         kw, kq = self.keys()
         icntl = PETSc.Options().getInt(s.prefix + "mat_mumps_icntl_14", 100) if s.is_set_up else 100
+        reference_volume = s.qmap.reference_volume
         d = dict(w=owned_keyed(s.w, kw), w_n=owned_keyed(s.w_n, kw), w_nm1=owned_keyed(s.w_nm1, kw),
                  **{k: Keyed(v, kq) for k, v in s.qmap.state().items()},
+                 reference_volume=None if reference_volume is None else Keyed(reference_volume.copy(), kq),
                  lam_converged=s.lam_converged, force_scale=s.force_scale,
                  roundoff_floor=s.roundoff_floor, total_iterations=s.total_iterations,
                  total_iterations_failed=s.total_iterations_failed, jacobians=s.jacobians,
@@ -64,12 +69,14 @@ class StaticRestart:
             n = s.W.dofmap.index_map.size_local * s.W.dofmap.index_map_bs
             owned = {k: d[k].take(kw[:n]) for k in ("w", "w_n", "w_nm1")}
             qp = {k: d[k].take(kq) for k in s.qmap.state()}
+            reference_volume = None if d.get("reference_volume") is None else d["reference_volume"].take(kq)
         except ck.CheckpointError as e:
             why = str(e)
         ck.raise_on_any(s.comm, why)
         for k in ("w", "w_n", "w_nm1"):
             ck.set_owned(getattr(s, k), owned[k])
         s.qmap.set_state(qp)
+        s.qmap.reference_volume = None if reference_volume is None else np.asarray(reference_volume, dtype=float)
         s.lam_converged = float(d["lam_converged"])
         s.set_load(s.lam_converged)
         s.force_scale = float(d["force_scale"])

@@ -54,9 +54,6 @@ class ThermalCoupling:
         self._at_points = None
         #: (owned points,) T at the points after the last heat step [K] (the thermal stretch's reference)
         self.T_points = np.full(qmap.n, heat.T_initial)
-        #: (owned points,) the thermal stretch theta = 1 + alpha (T - T_0) of the mesh's reference (1: the
-        #: first mesh; a remeshed one's reference is a deformed, expanded shape)
-        self.theta_reference = np.ones(qmap.n)
 
     def after_increment(self, t: float) -> None:
         """One heat step from the last converged pseudo-time to ``t`` (collective). Before the contact's
@@ -92,9 +89,10 @@ class ThermalCoupling:
         """The temperature field at the quadrature points after a heat step, for the next increment (the
         staggered split): the state of a temperature-dependent law (``qmap.thermal``: Johnson-Cook), and, with
         thermal expansion, the increment's thermal stretch theta = 1 + alpha (T - T_0) taken out of F_u
-        (``qmap.stretch`` = theta_last / theta_now) and the stress scaled to the reference's volume
-        (``qmap.volume_scale`` = (theta / theta_reference)^3, tau = J_e J_theta sigma); ``expand`` False: the
-        mesh's reference is now (a remesh), no stretch pending."""
+        (``qmap.stretch`` = theta_last / theta_now) and the stress scaled to the first mesh's reference volume
+        (``qmap.volume_scale`` = theta^3, tau = J_e J_theta sigma; a remeshed body's reference, a deformed and
+        expanded shape, is ``qmap.reference_volume``); ``expand`` False: the mesh's reference is now (a
+        remesh), no stretch pending."""
         if not (self.qmap.thermal or self.expansion is not None):
             return
         values = self.points_temperature()
@@ -104,9 +102,7 @@ class ThermalCoupling:
         if self.expansion is not None:
             theta = self.theta(values)
             self.qmap.stretch = self.theta(self.T_points) / theta if expand else None
-            if not expand:
-                self.theta_reference = theta
-            self.qmap.volume_scale = (theta / self.theta_reference) ** 3
+            self.qmap.volume_scale = theta ** 3
         self.T_points = values
 
     def theta(self, T: np.ndarray) -> np.ndarray:
@@ -128,7 +124,7 @@ class ThermalCoupling:
         stretch = np.ones(self.qmap.n) if self.qmap.stretch is None else self.qmap.stretch
         return dict(**self.heat.state_dict(kT), eqps_last=Keyed(self.plastic.eqps_last.copy(), kq),
                     tau_last=Keyed(self.plastic.tau_last.copy(), kq), T_points=Keyed(self.T_points.copy(), kq),
-                    stretch=Keyed(stretch.copy(), kq), theta_reference=Keyed(self.theta_reference.copy(), kq),
+                    stretch=Keyed(stretch.copy(), kq),
                     t_last=self.t_last)
 
     def load_state(self, d) -> None:
@@ -139,15 +135,15 @@ class ThermalCoupling:
         why, rows = None, None
         try:
             rows = {k: np.asarray(d[k].take(kq), dtype=float)
-                    for k in ("eqps_last", "tau_last", "T_points", "stretch", "theta_reference")}
+                    for k in ("eqps_last", "tau_last", "T_points", "stretch")}
         except ck.CheckpointError as e:
             why = str(e)
         ck.raise_on_any(self.heat.comm, why)
         self.plastic.eqps_last, self.plastic.tau_last = rows["eqps_last"], rows["tau_last"]
-        self.T_points, self.theta_reference = rows["T_points"], rows["theta_reference"]
+        self.T_points = rows["T_points"]
         if self.expansion is not None:
             self.qmap.stretch = rows["stretch"]
-            self.qmap.volume_scale = (self.theta(self.T_points) / self.theta_reference) ** 3
+            self.qmap.volume_scale = self.theta(self.T_points) ** 3
         self.t_last = float(d["t_last"])
 
     def keys(self):
