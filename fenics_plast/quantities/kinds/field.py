@@ -31,7 +31,12 @@ def value(name, o, q, time, row):
     b, comm = q.body, q.body.comm
     qm = b.qmap
     v = by_output(o.field)
-    vals = von_mises(qm.tau_values) if v is None else getattr(qm, v.name)
+    if v is not None:
+        vals = getattr(qm, v.name)
+    else:       # the solver's tau is per volume of the mesh's reference: times J_ref, the first mesh's Kirchhoff
+        vals = von_mises(qm.tau_values)
+        if qm.reference_volume is not None:
+            vals = vals * qm.reference_volume
     if o.regions is not None:
         cells = np.concatenate([b.cell_regions[r] for r in o.regions])
         vals = vals.reshape(-1, qm.nq)[cells]
