@@ -18,13 +18,12 @@ benchmark: it asserts nothing.
 from __future__ import annotations
 
 import argparse
-import csv
-import json
-import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
+
+from bench_remesh_static import run_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "demos" / "billet_upsetting.toml"
@@ -45,17 +44,8 @@ def plain_scene(out: Path) -> Path:
 
 
 def run(scene: Path, out: Path, reuse: bool, sets=()) -> tuple[dict, dict]:
-    """(summary.json, history columns) of ``scene`` with ``sets`` in ``out``."""
-    if not (reuse and (out / "summary.json").is_file()):
-        cmd = [str(ROOT / ".venv" / "bin" / "fenics-plast"), "run", str(scene), "--out", str(out),
-               "--set", "output.plots=false"]
-        cmd += [a for kv in sets for a in ("--set", kv)]
-        print(" ".join(cmd), flush=True)
-        subprocess.run(cmd, check=False, stdout=subprocess.DEVNULL)
-    summary = json.loads((out / "summary.json").read_text())
-    with open(out / "history.csv", newline="") as f:
-        rows = list(csv.DictReader(f))
-    return summary, {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    """(summary.json, history columns) of ``scene`` with ``sets`` in ``out``, without plots."""
+    return run_scene(scene, out, reuse, ("output.plots=false", *sets))
 
 
 def against(h: dict, ref: dict, upto: float) -> tuple[float, float, float]:

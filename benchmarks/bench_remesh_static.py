@@ -30,12 +30,11 @@ ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "demos" / "backward_extrusion.toml"
 
 
-def run(out: Path, size: float, refine: float, reuse: bool, sets=()) -> tuple[dict, dict]:
-    """(summary.json, history columns) of the demo at ``size`` / ``refine`` [mm] in ``out`` (``sets``:
-    further KEY=VALUE settings)."""
+def run_scene(scene: Path, out: Path, reuse: bool, sets=()) -> tuple[dict, dict]:
+    """(summary.json, history columns) of ``scene`` run through the CLI into ``out`` with the KEY=VALUE
+    settings ``sets``; ``reuse``: read a run already there."""
     if not (reuse and (out / "summary.json").is_file()):
-        cmd = [str(ROOT / ".venv" / "bin" / "fenics-plast"), "run", str(SCENE), "--out", str(out),
-               "--set", f"remeshing.size={size}", "--set", f"remeshing.refine_size={refine}"]
+        cmd = [str(ROOT / ".venv" / "bin" / "fenics-plast"), "run", str(scene), "--out", str(out)]
         cmd += [a for kv in sets for a in ("--set", kv)]
         print(" ".join(cmd), flush=True)
         subprocess.run(cmd, check=False, stdout=subprocess.DEVNULL)
@@ -44,6 +43,11 @@ def run(out: Path, size: float, refine: float, reuse: bool, sets=()) -> tuple[di
         rows = list(csv.DictReader(f))
     history = {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
     return summary, history
+
+
+def run(out: Path, size: float, refine: float, reuse: bool, sets=()) -> tuple[dict, dict]:
+    """:func:`run_scene` of the demo at ``size`` / ``refine`` [mm] in ``out`` (``sets``: further settings)."""
+    return run_scene(SCENE, out, reuse, (f"remeshing.size={size}", f"remeshing.refine_size={refine}", *sets))
 
 
 def report(name: str, s: dict, h: dict) -> None:
