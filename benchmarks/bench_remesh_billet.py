@@ -34,6 +34,7 @@ def plain_scene(out: Path) -> Path:
     """A copy of the demo without its [remeshing] table, in ``out``."""
     text = SCENE.read_text()
     mesh = (SCENE.parent / "../docs/tutorial/billet.geo").resolve()
+    assert 'file = "../docs/tutorial/billet.geo"' in text, "the demo's mesh file line has changed"
     text = text.replace('file = "../docs/tutorial/billet.geo"', f'file = "{mesh}"')
     start = text.index("\n[remeshing]")
     end = text.index("\n[", start + 1)

@@ -87,8 +87,8 @@ def _volume_ratio(s):
     Carried to a new mesh as its reference volume: the Cauchy stress tau / (J_ref theta) goes on from the
     old one's (taken as 1 on the new reference, the stress would jump by the elastic volume change, 0.2 %
     in the billet at 300 MPa of pressure)."""
-    ratio = s.qp_jacobian().copy()
-    return ratio if s.qmap.reference_volume is None else ratio * s.qmap.reference_volume
+    ratio = s.qp_jacobian()                 # (the solver's buffer: copied or multiplied into a new array)
+    return ratio.copy() if s.qmap.reference_volume is None else ratio * s.qmap.reference_volume
 
 
 #: the share of a new mesh's out-of-balance force applied at each stage of a re-equilibration that did

@@ -156,7 +156,7 @@ def test_remesh_keeps_friction_force():
 
 def pressed_scene(tmp_path):
     """The tutorial's billet without its die: the top face pressed down 3 t mm (a displacement
-    condition), frictionless: a homogeneous elastic-plastic state, which every transfer carries exactly."""
+    condition, no contact): a homogeneous elastic-plastic state, which every transfer carries exactly."""
     text = BILLET.read_text().replace('file = "billet.geo"', f'file = "{BILLET.parent / "billet.geo"}"')
     text = text[:text.index("[contact.die]")] + text[text.index("[outputs.die_travel]"):]
     text = text.replace('[outputs.die_force]\nquantity = "tool_force"\ntool = "die"',
