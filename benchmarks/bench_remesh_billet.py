@@ -1,19 +1,23 @@
-"""Remeshing benchmark, billet upsetting (issue 35): demos/billet_upsetting.toml with remeshing and without.
+"""Remeshing benchmark, billet upsetting (issue 35): demos/billet_upsetting.toml with remeshing and without,
+at three mesh sizes.
 
-    python benchmarks/bench_remesh_billet.py [--out results/bench_remesh_billet] [--reuse]
+    python benchmarks/bench_remesh_billet.py [--out results/bench_remesh_billet] [--reuse] [--levels 0.5 0.25]
 
-Four runs through the CLI, about 4 minutes in all on one core of the 2-core development machine:
+Per level h (mm) two runs through the CLI, from the same structured mesh of (10 / h) x (15 / h) cells:
 
-* ``plain_20x30``, ``plain_40x60``: the demo without its ``[remeshing]`` table (a copy of the scene, its
-  mesh file named by its absolute path, written into ``<out>``), on its 20 x 30 mesh and on 40 x 60;
-* ``remeshed_0.5``, ``remeshed_0.25``: the demo as shipped (remeshing size 0.5 mm, 0.25 near corners) and
-  at half the sizes.
+* ``plain_<h>``: the demo without its ``[remeshing]`` table (a copy of the scene, its mesh file named by its
+  absolute path, written into ``<out>``);
+* ``remeshed_<h>``: the demo with ``remeshing.size = h`` and ``remeshing.refine_size = h / 2``.
 
-Printed: per run the die force at 40 and 60 % height reduction (6 and 9 mm of die travel), remeshes and
-time; each remeshed run's force against each plain run's up to 40 % (the largest relative difference,
-where, and the mean), the two plain runs against each other (the discretisation's own spread), the
-two remeshed sizes against each other at 60 %, and the largest force drop across a remesh. A
-benchmark: it asserts nothing.
+Levels 0.5 (the demo as shipped), 0.25 and 0.125 mm; one run each on one core of the 2-core development
+machine: about 1, 3 and 13 minutes.
+
+Printed: per run the die force at 40 and 60 % height reduction (6 and 9 mm of die travel), remeshes, solve
+time and the force change across each run's first remesh (its re-equilibration at fixed die position);
+per level the remeshed run against the plain one up to 40 % (the largest relative difference, where, the
+mean); each plain run against the finest plain run (the discretisation's own spread: the nodes of the side
+folding onto the die one by one); each remeshed level against the next finer one at 60 %. A benchmark:
+it asserts nothing.
 """
 from __future__ import annotations
 
@@ -27,7 +31,9 @@ from bench_remesh_static import run_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "demos" / "billet_upsetting.toml"
-TRAVEL_40 = 6.0         # mm of die travel at 40 % height reduction (half height 15 mm)
+RADIUS, HALF_HEIGHT = 10.0, 15.0     # mm, the demo's billet (upper half)
+TRAVEL_40 = 0.4 * HALF_HEIGHT        # mm of die travel at 40 % height reduction
+LEVELS = (0.5, 0.25, 0.125)          # mm: cell size of the structured mesh and of the new meshes
 
 
 def plain_scene(out: Path) -> Path:
@@ -44,9 +50,9 @@ def plain_scene(out: Path) -> Path:
     return path
 
 
-def run(scene: Path, out: Path, reuse: bool, sets=()) -> tuple[dict, dict]:
-    """(summary.json, history columns) of ``scene`` with ``sets`` in ``out``, without plots."""
-    return run_scene(scene, out, reuse, ("output.plots=false", *sets))
+def cells(h: float) -> tuple[str, str]:
+    """The settings of the structured (10 / h) x (15 / h) mesh."""
+    return (f"mesh.parameters.cells_radial={round(RADIUS / h)}", f"mesh.parameters.cells_axial={round(HALF_HEIGHT / h)}")
 
 
 def against(h: dict, ref: dict, upto: float) -> tuple[float, float, float]:
@@ -64,32 +70,37 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=str(ROOT / "results" / "bench_remesh_billet"))
     ap.add_argument("--reuse", action="store_true")
+    ap.add_argument("--levels", type=float, nargs="+", default=list(LEVELS), help="cell sizes [mm]")
     args = ap.parse_args(argv)
     out = Path(args.out)
     plain = plain_scene(out)
-    runs = {
-        "plain_20x30": run(plain, out / "plain_20x30", args.reuse),
-        "plain_40x60": run(plain, out / "plain_40x60", args.reuse,
-                           ("mesh.parameters.cells_radial=40", "mesh.parameters.cells_axial=60")),
-        "remeshed_0.5": run(SCENE, out / "remeshed_0.5", args.reuse),
-        "remeshed_0.25": run(SCENE, out / "remeshed_0.25", args.reuse,
-                             ("remeshing.size=0.25", "remeshing.refine_size=0.125")),
-    }
-    for name, (s, h) in runs.items():
-        at40 = np.interp(TRAVEL_40, h["die_travel_mm"], h["die_force_kN"])
-        drops = [(b - a) / a for r in s.get("remesh_records", []) for k, (a, b) in r["jump"].items()
-                 if k == "die_force" and a]
-        print(f"{name}: die force {at40:.2f} kN at 40 %, {h['die_force_kN'][-1]:.2f} kN at "
-              f"{h['die_travel_mm'][-1] / 0.15:.0f} %; {s.get('remeshes', 0)} remeshes, solve {s['solve_time_s']:.0f} s"
-              + (f"; force change across a remesh {100 * min(drops):+.2f} % at most" if drops else ""))
-    for name in ("remeshed_0.5", "remeshed_0.25", "plain_40x60"):
-        for ref in ("plain_20x30", "plain_40x60"):
-            if ref == name:
-                continue
-            d, where, mean = against(runs[name][1], runs[ref][1], TRAVEL_40)
-            print(f"{name} against {ref} up to 40 %: largest {100 * d:+.2f} % (at {where:.2f} mm), mean {100 * mean:.2f} %")
-    f05, f025 = (runs[n][1]["die_force_kN"][-1] for n in ("remeshed_0.5", "remeshed_0.25"))
-    print(f"remeshed 0.5 against 0.25 mm at the end: {100 * (f05 - f025) / f025:+.2f} %")
+    levels = sorted(args.levels, reverse=True)
+    runs = {}
+    for h in levels:
+        quiet = ("output.plots=false",)
+        runs[f"plain_{h:g}"] = run_scene(plain, out / f"plain_{h:g}", args.reuse, (*quiet, *cells(h)))
+        runs[f"remeshed_{h:g}"] = run_scene(SCENE, out / f"remeshed_{h:g}", args.reuse,
+                                            (*quiet, *cells(h), f"remeshing.size={h:g}", f"remeshing.refine_size={h / 2:g}"))
+    for name, (s, hist) in runs.items():
+        at40 = np.interp(TRAVEL_40, hist["die_travel_mm"], hist["die_force_kN"])
+        first = next(((r["jump"]["die_travel"][0], (b - a) / a) for r in s.get("remesh_records", [])
+                      for k, (a, b) in r["jump"].items() if k == "die_force" and a), None)
+        print(f"{name}: die force {at40:.2f} kN at 40 %, {hist['die_force_kN'][-1]:.2f} kN at "
+              f"{100 * hist['die_travel_mm'][-1] / HALF_HEIGHT:.0f} %; {s.get('remeshes', 0)} remeshes, "
+              f"solve {s['solve_time_s']:.0f} s"
+              + (f"; first remesh at {first[0]:.2f} mm: force {100 * first[1]:+.2f} %" if first else ""))
+    finest = f"plain_{levels[-1]:g}"
+    for h in levels:
+        d, where, mean = against(runs[f"remeshed_{h:g}"][1], runs[f"plain_{h:g}"][1], TRAVEL_40)
+        print(f"level {h:g} mm, remeshed against plain up to 40 %: largest {100 * d:+.2f} % (at {where:.2f} mm), "
+              f"mean {100 * mean:.2f} %")
+        if f"plain_{h:g}" != finest:
+            d, where, mean = against(runs[f"plain_{h:g}"][1], runs[finest][1], TRAVEL_40)
+            print(f"  plain {h:g} against {finest} up to 40 %: largest {100 * d:+.2f} % (at {where:.2f} mm), "
+                  f"mean {100 * mean:.2f} %")
+    for coarse, fine in zip(levels[:-1], levels[1:]):
+        f1, f2 = (runs[f"remeshed_{h:g}"][1]["die_force_kN"][-1] for h in (coarse, fine))
+        print(f"remeshed {coarse:g} against {fine:g} mm at the end: {100 * (f1 - f2) / f2:+.2f} %")
     return 0
 
 
