@@ -52,7 +52,8 @@ def plain_scene(out: Path) -> Path:
 
 def cells(h: float) -> tuple[str, str]:
     """The settings of the structured (10 / h) x (15 / h) mesh."""
-    return (f"mesh.parameters.cells_radial={round(RADIUS / h)}", f"mesh.parameters.cells_axial={round(HALF_HEIGHT / h)}")
+    return (f"mesh.parameters.cells_radial={round(RADIUS / h)}",
+            f"mesh.parameters.cells_axial={round(HALF_HEIGHT / h)}")
 
 
 def against(h: dict, ref: dict, upto: float) -> tuple[float, float, float]:
@@ -79,8 +80,8 @@ def main(argv=None) -> int:
     for h in levels:
         quiet = ("output.plots=false",)
         runs[f"plain_{h:g}"] = run_scene(plain, out / f"plain_{h:g}", args.reuse, (*quiet, *cells(h)))
-        runs[f"remeshed_{h:g}"] = run_scene(SCENE, out / f"remeshed_{h:g}", args.reuse,
-                                            (*quiet, *cells(h), f"remeshing.size={h:g}", f"remeshing.refine_size={h / 2:g}"))
+        remeshing = (f"remeshing.size={h:g}", f"remeshing.refine_size={h / 2:g}")
+        runs[f"remeshed_{h:g}"] = run_scene(SCENE, out / f"remeshed_{h:g}", args.reuse, (*quiet, *cells(h), *remeshing))
     for name, (s, hist) in runs.items():
         at40 = np.interp(TRAVEL_40, hist["die_travel_mm"], hist["die_force_kN"])
         first = next(((r["jump"]["die_travel"][0], (b - a) / a) for r in s.get("remesh_records", [])
