@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +32,8 @@ from bench_remesh_static import run_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "demos" / "billet_upsetting.toml"
-RADIUS, HALF_HEIGHT = 10.0, 15.0     # mm, the demo's billet (upper half)
+_BILLET = tomllib.loads(SCENE.read_text())["mesh"]["parameters"]
+RADIUS, HALF_HEIGHT = _BILLET["radius"], _BILLET["height"] / 2    # mm: the demo's billet (its upper half)
 TRAVEL_40 = 0.4 * HALF_HEIGHT        # mm of die travel at 40 % height reduction
 LEVELS = (0.5, 0.25, 0.125)          # mm: cell size of the structured mesh and of the new meshes
 
@@ -51,7 +53,7 @@ def plain_scene(out: Path) -> Path:
 
 
 def cells(h: float) -> tuple[str, str]:
-    """The settings of the structured (10 / h) x (15 / h) mesh."""
+    """The settings of the structured (RADIUS / h) x (HALF_HEIGHT / h) mesh: (10 / h) x (15 / h)."""
     return (f"mesh.parameters.cells_radial={round(RADIUS / h)}",
             f"mesh.parameters.cells_axial={round(HALF_HEIGHT / h)}")
 

@@ -18,9 +18,10 @@ def remeshed_explicit(problem, comm, b, remesher, reason, quantities, build) -> 
     work accumulators carried; the internal work takes the change of elastic energy, so that the
     balance counts what the transfer changed in kinetic and elastic energy as its error. The mass of
     the new mesh is the reference density times its volume (the old deformed one): off by the elastic
-    volume change (recorded in the jump), and so is its stress: the reference's volume ratio, which the static
-    runner carries (:func:`fenics_plast.runner_static_remesh._volume_ratio`), is not carried here. ``build``: :func:`fenics_plast.runner_explicit.build_explicit`
-    (passed in: the runner imports this module). Returns (the new build with ``u_before``, the record, the
+    volume change (recorded in the jump), and so is its stress: the reference's volume ratio, which the
+    static runner carries (:func:`fenics_plast.runner_static_remesh._volume_ratio`), is not carried here.
+    ``build``: :func:`fenics_plast.runner_explicit.build_explicit` (passed in: the runner imports this
+    module). Returns (the new build with ``u_before``, the record, the
     outputs before). Collective."""
     from dolfinx import fem
     from fenics_plast.remeshing.quality import deformed_nodes

@@ -66,6 +66,19 @@ def run_billet(out, *sets, np_ranks=1):
 
 # --- 1. remeshed 10 times at one load --------------------------------------------------------------
 
+def loaded_build(p, lam_end):
+    """:func:`build_static` of the problem ``p`` loaded to ``lam_end`` by its analysis settings (the contact
+    committed after each increment, as the runner does), ready for ``remeshed``."""
+    from fenics_plast.runner_static import build_static
+    b = build_static(p, COMM)
+    b.u_before = 0.0
+    ana = p.analysis
+    commit = (lambda s: (b.contact.commit(), False)[1]) if b.contact is not None else None
+    b.solver.run(increments=ana.increments, min_increment=ana.min_increment, max_increment=ana.max_increment,
+                 lam_end=lam_end, callback=commit)
+    return b
+
+
 def remesh_series(friction):
     """The billet (friction ``friction``) pressed to t = 0.5, then remeshed REMESHES times at that load:
     (values before, [values after each remesh], [RemeshRecord]); values: die_force, max_eqps,
@@ -79,11 +92,7 @@ def remesh_series(friction):
     p = load_problem(BILLET, ["remeshing.size=1.25", "analysis.increments=10", f"contact.die.friction={friction}",
                               "outputs.die_radial.quantity=tool_force", "outputs.die_radial.tool=die",
                               "outputs.die_radial.component=r"])
-    b = build_static(p, COMM)
-    b.u_before = 0.0
-    ana = p.analysis
-    b.solver.run(increments=ana.increments, min_increment=ana.min_increment, max_increment=ana.max_increment,
-                 lam_end=0.5, callback=lambda s: (b.contact.commit(), False)[1])
+    b = loaded_build(p, 0.5)
     assert b.solver.lam_converged == pytest.approx(0.5, abs=1e-12)
     remesher = Remesher(p.remeshing, True)
 
@@ -180,11 +189,7 @@ def test_remesh_at_rest_keeps_homogeneous_stress(tmp_path):
     from fenics_plast.runner_static import build_static
     from fenics_plast.runner_static_remesh import remeshed
     p = load_problem(pressed_scene(tmp_path), ["remeshing.size=1.25", "analysis.increments=4"])
-    b = build_static(p, COMM)
-    b.u_before = 0.0
-    ana = p.analysis
-    b.solver.run(increments=ana.increments, min_increment=ana.min_increment, max_increment=ana.max_increment,
-                 lam_end=0.01)
+    b = loaded_build(p, 0.01)
 
     def force(b):
         q = Quantities(p.outputs, b.body, b.facet_tags, b.groups, b.reactions)
@@ -369,7 +374,7 @@ def test_billet_with_and_without_remeshing(tmp_path):
     remeshed = run_billet_like(SCENE, tmp_path / "remeshed", (*sets, f"remeshing.size={h}",
                                                                f"remeshing.refine_size={h / 2}"))
     h0, h1 = (history(tmp_path / d) for d in ("plain", "remeshed"))
-    d, where, mean = against({k: h1[k] for k in h1.dtype.names}, {k: h0[k] for k in h0.dtype.names}, 6.0)
+    d, where, mean = against(h1, h0, 6.0)
     print(f"\nbillet at {h} mm to 40 %: {remeshed['remeshes']} remeshes; die force remeshed against plain: "
           f"largest {d:+.3%} (at {where:.2f} mm), mean {mean:.3%}")
     assert plain["converged"] and remeshed["converged"] and remeshed["remeshes"] >= 1
